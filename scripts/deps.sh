@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Installs the Debian packages the project needs. Idempotent and quiet when everything is
+# already there. Usage: scripts/deps.sh [--bench]   (--bench adds the peer libraries that
+# only the side-by-side benchmarks need: OctoMap, OpenVDB, nanoflann, PCL).
+set -euo pipefail
+pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
+  libeigen3-dev libopencv-dev libsqlite3-dev libzstd-dev nlohmann-json3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev opencv-doc)
+if [[ "${1:-}" == "--bench" ]]; then
+  pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev)
+fi
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "deps: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi

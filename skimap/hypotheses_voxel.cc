@@ -1,0 +1,116 @@
+#include "skimap/hypotheses_voxel.h"
+
+#include <algorithm>
+
+namespace skimap {
+namespace {
+
+void EncodePose(Encoder& e, const std::array<float, 3>& t, const std::array<float, 4>& q) {
+  for (float v : t) e.F32(v);
+  for (float v : q) e.F32(v);
+}
+bool DecodePose(Decoder& d, std::array<float, 3>* t, std::array<float, 4>* q) {
+  for (float& v : *t) {
+    if (!d.F32(&v)) return false;
+  }
+  for (float& v : *q) {
+    if (!d.F32(&v)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+HypothesesVoxel& HypothesesVoxel::operator+=(const HypothesesVoxel& o) {
+  for (const Hypothesis& h : o.items_) {
+    if (std::find(items_.begin(), items_.end(), h) == items_.end()) items_.push_back(h);
+  }
+  return *this;
+}
+
+HypothesesVoxel& HypothesesVoxel::operator-=(const HypothesesVoxel& o) {
+  std::erase_if(items_, [&](const Hypothesis& h) {
+    return std::find(o.items_.begin(), o.items_.end(), h) != o.items_.end();
+  });
+  return *this;
+}
+
+float HypothesesVoxel::Weight() const {
+  float total = 0;
+  for (const Hypothesis& h : items_) total += h.score;
+  return total;
+}
+
+void HypothesesVoxel::Encode(Encoder& e) const {
+  e.U32(static_cast<uint32_t>(items_.size()));
+  for (const Hypothesis& h : items_) {
+    EncodePose(e, h.t, h.q);
+    e.U32(h.object_id);
+    e.F32(h.score);
+  }
+}
+
+bool HypothesesVoxel::Decode(Decoder& d, HypothesesVoxel* v) {
+  constexpr size_t kBytes = 9 * 4;
+  uint32_t n;
+  if (!d.U32(&n) || n > d.remaining() / kBytes) return false;
+  std::vector<Hypothesis> items(n);
+  for (Hypothesis& h : items) {
+    if (!DecodePose(d, &h.t, &h.q) || !d.U32(&h.object_id) || !d.F32(&h.score)) return false;
+  }
+  v->items_ = std::move(items);
+  return true;
+}
+
+InstancesVoxel& InstancesVoxel::operator+=(const InstancesVoxel& o) {
+  for (const Instance& i : o.items_) {
+    auto it = std::find_if(items_.begin(), items_.end(),
+                           [&](const Instance& mine) { return mine.id == i.id; });
+    if (it == items_.end()) {
+      items_.push_back(i);
+    } else {
+      *it = i;
+    }
+  }
+  return *this;
+}
+
+InstancesVoxel& InstancesVoxel::operator-=(const InstancesVoxel& o) {
+  std::erase_if(items_, [&](const Instance& mine) {
+    return std::any_of(o.items_.begin(), o.items_.end(),
+                       [&](const Instance& i) { return i.id == mine.id; });
+  });
+  return *this;
+}
+
+void InstancesVoxel::Encode(Encoder& e) const {
+  e.U32(static_cast<uint32_t>(items_.size()));
+  for (const Instance& i : items_) {
+    e.U64(i.id);
+    e.U32(i.object_id);
+    EncodePose(e, i.t, i.q);
+    e.F32(i.score);
+    e.U32(i.support);
+  }
+}
+
+bool InstancesVoxel::Decode(Decoder& d, InstancesVoxel* v) {
+  constexpr size_t kBytes = 8 + 4 + 7 * 4 + 4 + 4;
+  uint32_t n;
+  if (!d.U32(&n) || n > d.remaining() / kBytes) return false;
+  std::vector<Instance> items(n);
+  for (size_t k = 0; k < items.size(); ++k) {
+    Instance& i = items[k];
+    if (!d.U64(&i.id) || !d.U32(&i.object_id) || !DecodePose(d, &i.t, &i.q) ||
+        !d.F32(&i.score) || !d.U32(&i.support)) {
+      return false;
+    }
+    for (size_t j = 0; j < k; ++j) {
+      if (items[j].id == i.id) return false;
+    }
+  }
+  v->items_ = std::move(items);
+  return true;
+}
+
+}  // namespace skimap

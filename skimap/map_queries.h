@@ -1,0 +1,137 @@
+// 2.5D height maps and 2D occupancy grids computed from a SkiMap, one pass over its
+// (x, y) columns (the multi-level query of the SkiMap paper).
+//
+// Layout of both rasters (nav_msgs/OccupancyGrid and grid_map conventions): cells of the
+// map's resolution, row-major with x fastest, cell (0, 0) has its lower-left corner at
+// (origin_x, origin_y), so cell (i, j) covers [origin_x + i*res, origin_x + (i+1)*res) in x.
+// A region, when given, is a world-frame rectangle; it is widened to whole cells.
+//
+// Thread safety: readers of the map (safe while it is being written; see skimap.h).
+#ifndef SKIMAP_MAP_QUERIES_H_
+#define SKIMAP_MAP_QUERIES_H_
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
+#include "skimap/skimap.h"
+
+namespace skimap {
+
+// World-frame rectangle, metres, bounds inclusive.
+struct Region2D {
+  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+};
+
+// Largest raster a query may produce (cells), to keep a bad request from taking the server.
+inline constexpr int64_t kMaxRasterCells = int64_t{1} << 28;
+
+struct RasterGeometry {
+  double resolution = 0;
+  double origin_x = 0, origin_y = 0;  // lower-left corner of cell (0, 0)
+  int32_t width = 0, height = 0;      // cells along x, along y
+  int32_t key_x0 = 0, key_y0 = 0;     // voxel key of cell (0, 0)
+};
+
+struct HeightMap {
+  RasterGeometry geometry;
+  std::vector<float> heights;  // metres (voxel centre z of the top surface); NaN = unknown
+};
+
+struct HeightMapOptions {
+  std::optional<Region2D> region;  // default: the map's bounds
+  float min_weight = 0;            // voxels with Weight() < min_weight are ignored
+};
+
+struct OccupancyGrid {
+  static constexpr int8_t kUnknown = -1, kFree = 0, kOccupied = 100;
+  RasterGeometry geometry;
+  std::vector<int8_t> cells;  // kUnknown / kFree / kOccupied
+};
+
+struct OccupancyGridOptions {
+  std::optional<Region2D> region;  // default: the map's bounds
+  // A cell is occupied when a voxel centre lies in [band_min_z, band_max_z] (the robot's
+  // height band) ...
+  double band_min_z = 0.05;
+  double band_max_z = 1.5;
+  // ... free when nothing is in the band but the floor was seen: a voxel centre in
+  // [floor_min_z, band_min_z); unknown otherwise.
+  double floor_min_z = -0.3;
+  float min_weight = 0;  // voxels with Weight() < min_weight are ignored
+};
+
+// Cell geometry for a region (or the map's bounds). InvalidArgument for a bad region,
+// ResourceExhausted above kMaxRasterCells; an empty map without region gives 0x0.
+absl::StatusOr<RasterGeometry> MakeRasterGeometry(const Grid& grid,
+                                                  const std::optional<Region2D>& region,
+                                                  const std::optional<KeyBox>& bounds);
+
+template <Voxel V>
+absl::StatusOr<HeightMap> ComputeHeightMap(const SkiMap<V>& map, const HeightMapOptions& opt) {
+  absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
+      map.grid(), opt.region, opt.region ? std::nullopt : map.Bounds());
+  if (!geo.ok()) return geo.status();
+  HeightMap out{*geo, std::vector<float>(size_t(geo->width) * size_t(geo->height),
+                                         std::numeric_limits<float>::quiet_NaN())};
+  if (out.heights.empty()) return out;
+  const Grid& grid = map.grid();
+  map.ForEachColumn(geo->key_x0, geo->key_x0 + geo->width - 1, geo->key_y0,
+                    geo->key_y0 + geo->height - 1,
+                    [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
+                      std::optional<int32_t> top;
+                      column.ForEach([&](int32_t kz, const V& v) {
+                        if (v.Weight() >= opt.min_weight) top = kz;
+                      });
+                      if (!top) return;
+                      const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
+                      out.heights[i] = static_cast<float>(grid.AxisCenter(*top, grid.origin().z));
+                    });
+  return out;
+}
+
+template <Voxel V>
+absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
+                                                   const OccupancyGridOptions& opt) {
+  if (!(opt.band_min_z <= opt.band_max_z) || !(opt.floor_min_z <= opt.band_min_z)) {
+    return absl::InvalidArgumentError(
+        "z band: need floor_min_z <= band_min_z <= band_max_z (all finite)");
+  }
+  absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
+      map.grid(), opt.region, opt.region ? std::nullopt : map.Bounds());
+  if (!geo.ok()) return geo.status();
+  OccupancyGrid out{*geo, std::vector<int8_t>(size_t(geo->width) * size_t(geo->height),
+                                              OccupancyGrid::kUnknown)};
+  if (out.cells.empty()) return out;
+  const Grid& grid = map.grid();
+  int32_t band0, band1, floor0, floor1;
+  grid.CenterRange(opt.band_min_z, opt.band_max_z, grid.origin().z, &band0, &band1);
+  grid.CenterRange(opt.floor_min_z, opt.band_min_z, grid.origin().z, &floor0, &floor1);
+  if (floor1 >= band0) floor1 = band0 - 1;  // a centre exactly at band_min_z is in the band
+  map.ForEachColumn(
+      geo->key_x0, geo->key_x0 + geo->width - 1, geo->key_y0, geo->key_y0 + geo->height - 1,
+      [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
+        bool occupied = false, floor = false;
+        column.ForEachInRange(floor0, band1, [&](int32_t kz, const V& v) {
+          if (v.Weight() < opt.min_weight) return;
+          if (kz >= band0) {
+            occupied = true;
+          } else if (kz <= floor1) {
+            floor = true;
+          }
+        });
+        const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
+        out.cells[i] = occupied ? OccupancyGrid::kOccupied
+                       : floor  ? OccupancyGrid::kFree
+                                : OccupancyGrid::kUnknown;
+      });
+  return out;
+}
+
+}  // namespace skimap
+
+#endif  // SKIMAP_MAP_QUERIES_H_

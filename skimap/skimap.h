@@ -1,0 +1,172 @@
+// SkiMap<V>: a sparse voxel map as a tree of skip lists, x -> y -> z (Gregorio and Di
+// Stefano, ICRA 2017), holding one voxel value V per occupied integer key.
+//
+//   SkiMap<RGBWeightedVoxel> map({.resolution = 0.02});
+//   VoxelBatch<RGBWeightedVoxel> batch;  ... batch.Finalize();
+//   map.Integrate(batch);                       // voxel += data, per distinct voxel
+//   map.RadiusSearch({1, 2, 0.5}, 0.2, [](const VoxelKey& k, const RGBWeightedVoxel& v) {});
+//   map.Deintegrate(batch);                     // voxel -= data; emptied voxels are freed
+//
+// Structure: the x level is a SkipList of columns; a column holds a y skip list whose
+// values are z skip lists of voxels, all nodes from the column's own NodePool. A voxel whose
+// IsEmpty() turns true is erased and its memory reused; an emptied z list, y entry or
+// column is removed too, so de-integrating everything returns the map to its empty size.
+// Keys and the world <-> key conversion are in grid.h (range ±2^20 per axis).
+//
+// Concurrency model (tested under TSan in tests/skimap/skimap_concurrency_test.cc):
+//  - Writers (Integrate, Deintegrate, Erase, Clear) are serialized by an internal mutex:
+//    one logical writer at a time. A batch is applied in parallel over its x columns on the
+//    Options::pool threads, each column under that column's writer lock.
+//  - Readers (every const method) may run concurrently with each other and with the
+//    writer. A reader holds the x-level lock in shared mode for the whole call and each
+//    column's lock in shared mode while it visits the column, so it sees every column in a
+//    consistent state, though not all columns at the same instant. The writer takes the
+//    x-level lock exclusively only to add or remove columns.
+//  - Callbacks run under those shared locks: they must not call writers of the same map.
+#ifndef SKIMAP_SKIMAP_H_
+#define SKIMAP_SKIMAP_H_
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/status.h"
+#include "absl/synchronization/mutex.h"
+#include "skimap/grid.h"
+#include "skimap/skip_list.h"
+#include "skimap/thread_pool.h"
+#include "skimap/voxel.h"
+#include "skimap/voxel_batch.h"
+
+namespace skimap {
+
+// What a write did.
+struct WriteStats {
+  size_t voxels_touched = 0;  // distinct voxels updated, created or removed
+  size_t voxels_created = 0;
+  size_t voxels_removed = 0;
+  void operator+=(const WriteStats& o) {
+    voxels_touched += o.voxels_touched;
+    voxels_created += o.voxels_created;
+    voxels_removed += o.voxels_removed;
+  }
+};
+
+template <Voxel V>
+class SkiMap {
+ public:
+  struct Options {
+    double resolution = 0.05;  // metres per voxel edge, > 0
+    Point3 origin;             // world position of the corner of voxel (0, 0, 0)
+    SkipListOptions lists;     // height policy and RNG seed of every skip list
+    ThreadPool* pool = nullptr;  // threads for batch writes (not owned); nullptr = caller
+  };
+  using ZList = SkipListCore<int32_t, V>;
+  using ZNode = typename ZList::Node;
+
+  // A read-only view of one (x, y) column of voxels, ordered by z.
+  class ZColumn {
+   public:
+    explicit ZColumn(const ZList& list) : list_(list) {}
+    // fn(int32_t kz, const V&) for every voxel, ascending z.
+    template <class Fn>
+    void ForEach(Fn&& fn) const {
+      for (const ZNode* n = list_.First(); n != nullptr; n = n->next[0]) fn(n->key, n->value);
+    }
+    // fn(int32_t kz, const V&) for lo <= kz <= hi, ascending.
+    template <class Fn>
+    void ForEachInRange(int32_t lo, int32_t hi, Fn&& fn) const {
+      for (const ZNode* n = list_.LowerBound(lo); n != nullptr && n->key <= hi; n = n->next[0]) {
+        fn(n->key, n->value);
+      }
+    }
+    size_t size() const { return list_.size(); }
+
+   private:
+    const ZList& list_;
+  };
+
+  explicit SkiMap(const Options& options);
+  ~SkiMap();
+  SkiMap(const SkiMap&) = delete;
+  SkiMap& operator=(const SkiMap&) = delete;
+
+  const Grid& grid() const { return grid_; }
+  const Options& options() const { return options_; }
+
+  // ---- Writers (serialized; see the concurrency model above) ----
+
+  // voxel(p) += data. InvalidArgument if p has no key (outside the key range, NaN).
+  [[nodiscard]] absl::Status Integrate(const Point3& p, const V& data);
+  // voxel(p) -= data; the voxel is removed when it becomes empty. A missing voxel is left
+  // missing. InvalidArgument if p has no key.
+  [[nodiscard]] absl::Status Deintegrate(const Point3& p, const V& data);
+  WriteStats IntegrateKey(const VoxelKey& key, const V& data);
+  WriteStats DeintegrateKey(const VoxelKey& key, const V& data);
+  // Applies a finalized batch (REQUIRES: batch.finalized()).
+  WriteStats Integrate(const VoxelBatch<V>& batch);
+  WriteStats Deintegrate(const VoxelBatch<V>& batch);
+  // Removes one voxel; false if it was absent.
+  bool Erase(const VoxelKey& key);
+  // Removes every voxel.
+  void Clear();
+
+  // ---- Readers (thread safe, concurrent with the writer) ----
+
+  // Copy of the voxel at `key`, if any.
+  std::optional<V> Find(const VoxelKey& key) const;
+  // fn(const VoxelKey&, const V&) for every voxel in (x, y, z) order.
+  template <class Fn>
+  void ForEach(Fn&& fn) const {
+    ForEachInBox(KeyBox{}, fn);
+  }
+  // fn(const VoxelKey&, const V&) for every voxel with key in `box`, in (x, y, z) order.
+  template <class Fn>
+  void ForEachInBox(const KeyBox& box, Fn&& fn) const;
+  // fn(const VoxelKey&, const V&) for every voxel whose centre is within `radius` metres of
+  // `center` (exact Euclidean test), in (x, y, z) order.
+  template <class Fn>
+  void RadiusSearch(const Point3& center, double radius, Fn&& fn) const;
+  // fn(int32_t kx, int32_t ky, const ZColumn&) for every non-empty (x, y) column with
+  // x in [min_x, max_x] and y in [min_y, max_y], in (x, y) order.
+  template <class Fn>
+  void ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32_t max_y, Fn&& fn) const;
+
+  // Number of voxels.
+  size_t size() const { return size_.load(std::memory_order_relaxed); }
+  bool empty() const { return size() == 0; }
+  // Smallest key box holding every voxel; nullopt when empty.
+  std::optional<KeyBox> Bounds() const;
+  // Heap and object bytes held by the map: pools (used and free), columns, the x level and
+  // memory the voxels own (V::HeapBytes).
+  size_t MemoryUsage() const;
+
+ private:
+  struct Column;
+  struct Run;  // the items of a batch that fall in one column
+  using XList = SkipList<int32_t, std::unique_ptr<Column>>;
+
+  WriteStats Apply(const typename VoxelBatch<V>::Item* items, size_t n, bool integrate)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(writer_mu_);
+  static WriteStats ApplyToColumn(Column& column, int32_t x,
+                                  const typename VoxelBatch<V>::Item* begin,
+                                  const typename VoxelBatch<V>::Item* end, bool integrate);
+  uint32_t ListSeed(int32_t x, int32_t y) const;
+
+  const Options options_;
+  const Grid grid_;
+  absl::Mutex writer_mu_;
+  mutable absl::Mutex x_mu_;
+  XList xs_ ABSL_GUARDED_BY(x_mu_);
+  std::atomic<size_t> size_{0};
+};
+
+}  // namespace skimap
+
+#include "skimap/skimap_impl.h"  // IWYU pragma: export
+
+#endif  // SKIMAP_SKIMAP_H_

@@ -1,0 +1,364 @@
+// Template definitions for skimap.h. Include skimap.h, not this file.
+#ifndef SKIMAP_SKIMAP_IMPL_H_
+#define SKIMAP_SKIMAP_IMPL_H_
+
+#include <algorithm>
+
+namespace skimap {
+
+namespace internal {
+// Seed of the z list at (x, y): distinct per column, reproducible for a given map seed.
+inline uint32_t MixSeed(uint32_t seed, int32_t x, int32_t y) {
+  uint64_t h = (uint64_t{static_cast<uint32_t>(x)} << 32) ^ static_cast<uint32_t>(y) ^ seed;
+  h ^= h >> 33;
+  h *= 0xff51afd7ed558ccdull;
+  h ^= h >> 33;
+  const uint32_t r = static_cast<uint32_t>(h);
+  return r == 0 ? 1 : r;
+}
+// Below this many voxels a batch is applied on the calling thread alone.
+inline constexpr size_t kParallelMinItems = 4096;
+}  // namespace internal
+
+template <Voxel V>
+struct SkiMap<V>::Column {
+  using YList = SkipListCore<int32_t, ZList>;
+  Column(const SkipListOptions& options, uint32_t seed) : arena(options), ys(seed) {}
+  ~Column() ABSL_NO_THREAD_SAFETY_ANALYSIS {
+    for (auto* n = ys.First(); n != nullptr; n = n->next[0]) n->value.Clear(arena);
+    ys.Clear(arena);
+  }
+  mutable absl::Mutex mu;
+  SkipListArena arena ABSL_GUARDED_BY(mu);
+  YList ys ABSL_GUARDED_BY(mu);
+  size_t heap_bytes ABSL_GUARDED_BY(mu) = 0;  // sum of V::HeapBytes in this column
+};
+
+template <Voxel V>
+struct SkiMap<V>::Run {
+  int32_t x;
+  size_t begin, end;
+  Column* column;
+  WriteStats stats;
+};
+
+template <Voxel V>
+SkiMap<V>::SkiMap(const Options& options)
+    : options_(options), grid_(options.resolution, options.origin), xs_(options.lists) {}
+
+template <Voxel V>
+SkiMap<V>::~SkiMap() = default;
+
+template <Voxel V>
+absl::Status SkiMap<V>::Integrate(const Point3& p, const V& data) {
+  VoxelKey key;
+  if (!grid_.ToKey(p, &key)) {
+    return absl::InvalidArgumentError("point: outside the map's key range or not finite");
+  }
+  IntegrateKey(key, data);
+  return absl::OkStatus();
+}
+
+template <Voxel V>
+absl::Status SkiMap<V>::Deintegrate(const Point3& p, const V& data) {
+  VoxelKey key;
+  if (!grid_.ToKey(p, &key)) {
+    return absl::InvalidArgumentError("point: outside the map's key range or not finite");
+  }
+  DeintegrateKey(key, data);
+  return absl::OkStatus();
+}
+
+template <Voxel V>
+WriteStats SkiMap<V>::IntegrateKey(const VoxelKey& key, const V& data) {
+  const typename VoxelBatch<V>::Item item{key, data};
+  absl::MutexLock lock(&writer_mu_);
+  return Apply(&item, 1, /*integrate=*/true);
+}
+
+template <Voxel V>
+WriteStats SkiMap<V>::DeintegrateKey(const VoxelKey& key, const V& data) {
+  const typename VoxelBatch<V>::Item item{key, data};
+  absl::MutexLock lock(&writer_mu_);
+  return Apply(&item, 1, /*integrate=*/false);
+}
+
+template <Voxel V>
+WriteStats SkiMap<V>::Integrate(const VoxelBatch<V>& batch) {
+  assert(batch.finalized());
+  absl::MutexLock lock(&writer_mu_);
+  return Apply(batch.items().data(), batch.size(), /*integrate=*/true);
+}
+
+template <Voxel V>
+WriteStats SkiMap<V>::Deintegrate(const VoxelBatch<V>& batch) {
+  assert(batch.finalized());
+  absl::MutexLock lock(&writer_mu_);
+  return Apply(batch.items().data(), batch.size(), /*integrate=*/false);
+}
+
+template <Voxel V>
+bool SkiMap<V>::Erase(const VoxelKey& key) {
+  absl::MutexLock lock(&writer_mu_);
+  std::optional<V> current = Find(key);
+  if (!current) return false;
+  const typename VoxelBatch<V>::Item item{key, *current};
+  // Subtracting a voxel from itself empties it, for every voxel type.
+  Apply(&item, 1, /*integrate=*/false);
+  return true;
+}
+
+template <Voxel V>
+void SkiMap<V>::Clear() {
+  absl::MutexLock lock(&writer_mu_);
+  absl::MutexLock x_lock(&x_mu_);
+  xs_.Clear();
+  size_.store(0, std::memory_order_relaxed);
+}
+
+template <Voxel V>
+WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n, bool integrate) {
+  std::vector<Run> runs;
+  for (size_t i = 0; i < n;) {
+    size_t j = i + 1;
+    while (j < n && items[j].key.x == items[i].key.x) ++j;
+    runs.push_back({items[i].key.x, i, j, nullptr, {}});
+    i = j;
+  }
+  bool missing = false;
+  {
+    absl::ReaderMutexLock lock(&x_mu_);
+    for (Run& r : runs) {
+      const std::unique_ptr<Column>* c = xs_.Find(r.x);
+      r.column = c != nullptr ? c->get() : nullptr;
+      missing |= r.column == nullptr;
+    }
+  }
+  if (integrate && missing) {
+    absl::MutexLock lock(&x_mu_);
+    for (Run& r : runs) {
+      if (r.column != nullptr) continue;
+      auto column = std::make_unique<Column>(
+          options_.lists, internal::MixSeed(options_.lists.seed, r.x, INT32_MIN));
+      r.column = column.get();
+      xs_.Insert(r.x, std::move(column));
+    }
+  }
+
+  auto apply_runs = [&](size_t first, size_t last) {
+    for (size_t i = first; i < last; ++i) {
+      Run& r = runs[i];
+      if (r.column == nullptr) continue;
+      absl::MutexLock lock(&r.column->mu);
+      r.stats = ApplyToColumn(*r.column, r.x, items + r.begin, items + r.end, integrate);
+    }
+  };
+  ThreadPool* pool = options_.pool;
+  if (pool != nullptr && pool->workers() > 0 && n >= internal::kParallelMinItems &&
+      runs.size() > 1) {
+    // Pieces of about equal item counts: piece p takes the runs starting in its share.
+    const size_t pieces = static_cast<size_t>(pool->workers()) + 1;
+    std::vector<size_t> piece_start(pieces + 1, runs.size());
+    for (size_t p = 0, r = 0; p < pieces; ++p) {
+      while (r < runs.size() && runs[r].begin < p * n / pieces) ++r;
+      piece_start[p] = r;
+    }
+    pool->ParallelFor(pieces, [&](size_t first, size_t last) {
+      for (size_t p = first; p < last; ++p) apply_runs(piece_start[p], piece_start[p + 1]);
+    });
+  } else {
+    apply_runs(0, runs.size());
+  }
+
+  WriteStats total;
+  std::vector<int32_t> emptied;
+  for (const Run& r : runs) {
+    total += r.stats;
+    if (r.column == nullptr || r.stats.voxels_removed == 0) continue;
+    absl::ReaderMutexLock lock(&r.column->mu);
+    if (r.column->ys.empty()) emptied.push_back(r.x);
+  }
+  if (!emptied.empty()) {
+    absl::MutexLock lock(&x_mu_);
+    for (int32_t x : emptied) xs_.Erase(x);
+  }
+  size_.fetch_add(total.voxels_created - total.voxels_removed, std::memory_order_relaxed);
+  return total;
+}
+
+template <Voxel V>
+WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x,
+                                    const typename VoxelBatch<V>::Item* begin,
+                                    const typename VoxelBatch<V>::Item* end, bool integrate)
+    ABSL_NO_THREAD_SAFETY_ANALYSIS {  // caller holds c.mu
+  using YList = typename Column::YList;
+  WriteStats s;
+  typename YList::Finger yf;
+  for (auto* it = begin; it != end;) {
+    const int32_t y = it->key.y;
+    auto* run_end = it;
+    while (run_end != end && run_end->key.y == y) ++run_end;
+    typename YList::Node* yn;
+    if (integrate) {
+      bool inserted = false;
+      yn = c.ys.FindOrInsert(c.arena, yf, y, &inserted);
+      if (inserted) yn->value = ZList(internal::MixSeed(0, x, y));
+    } else {
+      yn = c.ys.Seek(yf, y);
+      if (yn == nullptr || yn->key != y) {
+        it = run_end;
+        continue;
+      }
+    }
+    ZList& zl = yn->value;
+    typename ZList::Finger zf;
+    for (; it != run_end; ++it) {
+      const int32_t z = it->key.z;
+      ZNode* zn;
+      bool created = false;
+      if (integrate) {
+        zn = zl.FindOrInsert(c.arena, zf, z, &created);
+      } else {
+        zn = zl.Seek(zf, z);
+        if (zn == nullptr || zn->key != z) continue;
+      }
+      const size_t heap_before = zn->value.HeapBytes();
+      if (integrate) {
+        zn->value += it->data;
+      } else {
+        zn->value -= it->data;
+      }
+      ++s.voxels_touched;
+      s.voxels_created += created;
+      if (zn->value.IsEmpty()) {
+        c.heap_bytes -= heap_before;
+        zl.Erase(c.arena, zf, z);
+        ++s.voxels_removed;
+      } else {
+        c.heap_bytes += zn->value.HeapBytes() - heap_before;
+      }
+    }
+    if (zl.empty()) c.ys.Erase(c.arena, yf, y);
+  }
+  return s;
+}
+
+template <Voxel V>
+std::optional<V> SkiMap<V>::Find(const VoxelKey& key) const {
+  absl::ReaderMutexLock x_lock(&x_mu_);
+  const std::unique_ptr<Column>* c = xs_.Find(key.x);
+  if (c == nullptr) return std::nullopt;
+  const Column& column = **c;
+  absl::ReaderMutexLock lock(&column.mu);
+  const auto* yn = column.ys.Find(key.y);
+  if (yn == nullptr) return std::nullopt;
+  const ZNode* zn = yn->value.Find(key.z);
+  if (zn == nullptr) return std::nullopt;
+  return zn->value;
+}
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::ForEachInBox(const KeyBox& box, Fn&& fn) const {
+  if (box.empty()) return;
+  absl::ReaderMutexLock x_lock(&x_mu_);
+  for (auto* xn = xs_.LowerBound(box.min.x); xn != nullptr && xn->key <= box.max.x;
+       xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    absl::ReaderMutexLock lock(&column.mu);
+    for (auto* yn = column.ys.LowerBound(box.min.y); yn != nullptr && yn->key <= box.max.y;
+         yn = yn->next[0]) {
+      for (const ZNode* zn = yn->value.LowerBound(box.min.z);
+           zn != nullptr && zn->key <= box.max.z; zn = zn->next[0]) {
+        fn(VoxelKey{xn->key, yn->key, zn->key}, zn->value);
+      }
+    }
+  }
+}
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
+  if (!(radius >= 0) || !std::isfinite(radius)) return;
+  const double r2 = radius * radius;
+  const Point3& o = grid_.origin();
+  int32_t x0, x1;
+  grid_.CenterRange(c.x - radius, c.x + radius, o.x, &x0, &x1);
+  if (x0 > x1) return;
+  absl::ReaderMutexLock x_lock(&x_mu_);
+  for (auto* xn = xs_.LowerBound(x0); xn != nullptr && xn->key <= x1; xn = xn->next[0]) {
+    const double dx = grid_.AxisCenter(xn->key, o.x) - c.x;
+    const double rem_x = r2 - dx * dx;
+    if (rem_x < 0) continue;
+    const double sy = std::sqrt(rem_x);
+    int32_t y0, y1;
+    grid_.CenterRange(c.y - sy, c.y + sy, o.y, &y0, &y1);
+    if (y0 > y1) continue;
+    const Column& column = *xn->value;
+    absl::ReaderMutexLock lock(&column.mu);
+    for (auto* yn = column.ys.LowerBound(y0); yn != nullptr && yn->key <= y1; yn = yn->next[0]) {
+      const double dy = grid_.AxisCenter(yn->key, o.y) - c.y;
+      const double rem_xy = rem_x - dy * dy;
+      if (rem_xy < 0) continue;
+      const double sz = std::sqrt(rem_xy);
+      int32_t z0, z1;
+      grid_.CenterRange(c.z - sz, c.z + sz, o.z, &z0, &z1);
+      for (const ZNode* zn = yn->value.LowerBound(z0); zn != nullptr && zn->key <= z1;
+           zn = zn->next[0]) {
+        const double dz = grid_.AxisCenter(zn->key, o.z) - c.z;
+        if (dz * dz <= rem_xy) fn(VoxelKey{xn->key, yn->key, zn->key}, zn->value);
+      }
+    }
+  }
+}
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32_t max_y,
+                              Fn&& fn) const {
+  absl::ReaderMutexLock x_lock(&x_mu_);
+  for (auto* xn = xs_.LowerBound(min_x); xn != nullptr && xn->key <= max_x; xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    absl::ReaderMutexLock lock(&column.mu);
+    for (auto* yn = column.ys.LowerBound(min_y); yn != nullptr && yn->key <= max_y;
+         yn = yn->next[0]) {
+      fn(xn->key, yn->key, ZColumn(yn->value));
+    }
+  }
+}
+
+template <Voxel V>
+std::optional<KeyBox> SkiMap<V>::Bounds() const {
+  absl::ReaderMutexLock x_lock(&x_mu_);
+  if (xs_.empty()) return std::nullopt;
+  KeyBox b{{kMaxKey, kMaxKey, kMaxKey}, {kMinKey, kMinKey, kMinKey}};
+  b.min.x = xs_.First()->key;
+  b.max.x = xs_.Last()->key;
+  for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    absl::ReaderMutexLock lock(&column.mu);
+    b.min.y = std::min(b.min.y, column.ys.First()->key);
+    b.max.y = std::max(b.max.y, column.ys.Last()->key);
+    for (auto* yn = column.ys.First(); yn != nullptr; yn = yn->next[0]) {
+      b.min.z = std::min(b.min.z, yn->value.First()->key);
+      b.max.z = std::max(b.max.z, yn->value.Last()->key);
+    }
+  }
+  return b;
+}
+
+template <Voxel V>
+size_t SkiMap<V>::MemoryUsage() const {
+  absl::ReaderMutexLock x_lock(&x_mu_);
+  size_t bytes = sizeof(*this) - sizeof(xs_) + xs_.MemoryUsage();
+  for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    absl::ReaderMutexLock lock(&column.mu);
+    bytes += sizeof(Column) + column.arena.pool().BytesReserved() + column.heap_bytes;
+  }
+  return bytes;
+}
+
+}  // namespace skimap
+
+#endif  // SKIMAP_SKIMAP_IMPL_H_

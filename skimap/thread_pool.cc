@@ -1,0 +1,63 @@
+#include "skimap/thread_pool.h"
+
+namespace skimap {
+
+ThreadPool::ThreadPool(int workers) : worker_count_(workers > 0 ? workers : 0) {
+  for (size_t i = 0; i < worker_count_; ++i) threads_.emplace_back([this, i] { WorkerLoop(i); });
+}
+
+ThreadPool::~ThreadPool() {
+  {
+    std::lock_guard lock(mu_);
+    stop_ = true;
+  }
+  work_cv_.notify_all();
+  for (std::thread& t : threads_) t.join();
+}
+
+void ThreadPool::ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn) {
+  if (n == 0) return;
+  const size_t pieces = worker_count_ + 1;
+  if (worker_count_ == 0 || n == 1) {
+    fn(0, n);
+    return;
+  }
+  std::lock_guard call_lock(call_mu_);
+  {
+    std::lock_guard lock(mu_);
+    fn_ = &fn;
+    n_ = n;
+    pending_ = worker_count_;
+    ++generation_;
+  }
+  work_cv_.notify_all();
+  // The caller takes the last piece.
+  fn((pieces - 1) * n / pieces, n);
+  std::unique_lock lock(mu_);
+  done_cv_.wait(lock, [&] { return pending_ == 0; });
+  fn_ = nullptr;
+}
+
+void ThreadPool::WorkerLoop(size_t index) {
+  size_t seen = 0;
+  for (;;) {
+    const std::function<void(size_t, size_t)>* fn;
+    size_t n;
+    {
+      std::unique_lock lock(mu_);
+      work_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      if (stop_) return;
+      seen = generation_;
+      fn = fn_;
+      n = n_;
+    }
+    const size_t pieces = worker_count_ + 1;
+    (*fn)(index * n / pieces, (index + 1) * n / pieces);
+    {
+      std::lock_guard lock(mu_);
+      if (--pending_ == 0) done_cv_.notify_one();
+    }
+  }
+}
+
+}  // namespace skimap

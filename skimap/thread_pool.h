@@ -1,0 +1,53 @@
+// ThreadPool: a fixed set of worker threads for data-parallel loops.
+//
+//   ThreadPool pool(2);
+//   pool.ParallelFor(n, [&](size_t begin, size_t end) { ... });  // blocks until done
+//
+// ParallelFor splits [0, n) into contiguous ranges, runs them on the workers and on the
+// calling thread, and returns when all are done. With 0 workers everything runs inline.
+//
+// Thread safety: ParallelFor may be called from several threads; calls are serialized.
+#ifndef SKIMAP_THREAD_POOL_H_
+#define SKIMAP_THREAD_POOL_H_
+
+#include <condition_variable>
+#include <cstddef>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace skimap {
+
+class ThreadPool {
+ public:
+  // Starts `workers` threads (0 = run everything on the caller).
+  explicit ThreadPool(int workers);
+  ~ThreadPool();
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+
+  int workers() const { return static_cast<int>(worker_count_); }
+
+  // Runs fn(begin, end) over a partition of [0, n) in at most workers()+1 pieces.
+  void ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn);
+
+ private:
+  void WorkerLoop(size_t index);
+
+  std::mutex call_mu_;  // serializes ParallelFor calls
+  std::mutex mu_;
+  std::condition_variable work_cv_;
+  std::condition_variable done_cv_;
+  const std::function<void(size_t, size_t)>* fn_ = nullptr;  // guarded by mu_
+  size_t n_ = 0;                                            // guarded by mu_
+  size_t generation_ = 0;                                   // guarded by mu_
+  size_t pending_ = 0;                                      // guarded by mu_
+  bool stop_ = false;                                       // guarded by mu_
+  const size_t worker_count_;
+  std::vector<std::thread> threads_;
+};
+
+}  // namespace skimap
+
+#endif  // SKIMAP_THREAD_POOL_H_
