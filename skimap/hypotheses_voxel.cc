@@ -101,8 +101,8 @@ bool InstancesVoxel::Decode(Decoder& d, InstancesVoxel* v) {
   std::vector<Instance> items(n);
   for (size_t k = 0; k < items.size(); ++k) {
     Instance& i = items[k];
-    if (!d.U64(&i.id) || !d.U32(&i.object_id) || !DecodePose(d, &i.t, &i.q) ||
-        !d.F32(&i.score) || !d.U32(&i.support)) {
+    if (!d.U64(&i.id) || !d.U32(&i.object_id) || !DecodePose(d, &i.t, &i.q) || !d.F32(&i.score) ||
+        !d.U32(&i.support)) {
       return false;
     }
     for (size_t j = 0; j < k; ++j) {

@@ -21,8 +21,8 @@
 namespace skimap {
 
 struct Hypothesis {
-  std::array<float, 3> t{};             // metres, map frame
-  std::array<float, 4> q{1, 0, 0, 0};   // w, x, y, z
+  std::array<float, 3> t{};            // metres, map frame
+  std::array<float, 4> q{1, 0, 0, 0};  // w, x, y, z
   uint32_t object_id = 0;
   float score = 0;
   friend bool operator==(const Hypothesis&, const Hypothesis&) = default;

@@ -29,9 +29,8 @@ absl::StatusOr<RasterGeometry> MakeRasterGeometry(const Grid& grid,
   }
   const int64_t w = int64_t{x1} - x0 + 1, h = int64_t{y1} - y0 + 1;
   if (w * h > kMaxRasterCells) {
-    return absl::ResourceExhaustedError(absl::StrCat("region: ", w, " x ", h,
-                                                     " cells exceeds the limit of ",
-                                                     kMaxRasterCells));
+    return absl::ResourceExhaustedError(
+        absl::StrCat("region: ", w, " x ", h, " cells exceeds the limit of ", kMaxRasterCells));
   }
   g.width = static_cast<int32_t>(w);
   g.height = static_cast<int32_t>(h);

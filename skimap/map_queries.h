@@ -73,8 +73,8 @@ absl::StatusOr<RasterGeometry> MakeRasterGeometry(const Grid& grid,
 
 template <Voxel V>
 absl::StatusOr<HeightMap> ComputeHeightMap(const SkiMap<V>& map, const HeightMapOptions& opt) {
-  absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
-      map.grid(), opt.region, opt.region ? std::nullopt : map.Bounds());
+  absl::StatusOr<RasterGeometry> geo =
+      MakeRasterGeometry(map.grid(), opt.region, opt.region ? std::nullopt : map.Bounds());
   if (!geo.ok()) return geo.status();
   HeightMap out{*geo, std::vector<float>(size_t(geo->width) * size_t(geo->height),
                                          std::numeric_limits<float>::quiet_NaN())};
@@ -101,34 +101,34 @@ absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
     return absl::InvalidArgumentError(
         "z band: need floor_min_z <= band_min_z <= band_max_z (all finite)");
   }
-  absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
-      map.grid(), opt.region, opt.region ? std::nullopt : map.Bounds());
+  absl::StatusOr<RasterGeometry> geo =
+      MakeRasterGeometry(map.grid(), opt.region, opt.region ? std::nullopt : map.Bounds());
   if (!geo.ok()) return geo.status();
-  OccupancyGrid out{*geo, std::vector<int8_t>(size_t(geo->width) * size_t(geo->height),
-                                              OccupancyGrid::kUnknown)};
+  OccupancyGrid out{
+      *geo, std::vector<int8_t>(size_t(geo->width) * size_t(geo->height), OccupancyGrid::kUnknown)};
   if (out.cells.empty()) return out;
   const Grid& grid = map.grid();
   int32_t band0, band1, floor0, floor1;
   grid.CenterRange(opt.band_min_z, opt.band_max_z, grid.origin().z, &band0, &band1);
   grid.CenterRange(opt.floor_min_z, opt.band_min_z, grid.origin().z, &floor0, &floor1);
   if (floor1 >= band0) floor1 = band0 - 1;  // a centre exactly at band_min_z is in the band
-  map.ForEachColumn(
-      geo->key_x0, geo->key_x0 + geo->width - 1, geo->key_y0, geo->key_y0 + geo->height - 1,
-      [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
-        bool occupied = false, floor = false;
-        column.ForEachInRange(floor0, band1, [&](int32_t kz, const V& v) {
-          if (v.Weight() < opt.min_weight) return;
-          if (kz >= band0) {
-            occupied = true;
-          } else if (kz <= floor1) {
-            floor = true;
-          }
-        });
-        const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
-        out.cells[i] = occupied ? OccupancyGrid::kOccupied
-                       : floor  ? OccupancyGrid::kFree
-                                : OccupancyGrid::kUnknown;
-      });
+  map.ForEachColumn(geo->key_x0, geo->key_x0 + geo->width - 1, geo->key_y0,
+                    geo->key_y0 + geo->height - 1,
+                    [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
+                      bool occupied = false, floor = false;
+                      column.ForEachInRange(floor0, band1, [&](int32_t kz, const V& v) {
+                        if (v.Weight() < opt.min_weight) return;
+                        if (kz >= band0) {
+                          occupied = true;
+                        } else if (kz <= floor1) {
+                          floor = true;
+                        }
+                      });
+                      const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
+                      out.cells[i] = occupied ? OccupancyGrid::kOccupied
+                                     : floor  ? OccupancyGrid::kFree
+                                              : OccupancyGrid::kUnknown;
+                    });
   return out;
 }
 

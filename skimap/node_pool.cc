@@ -1,5 +1,6 @@
 #include "skimap/node_pool.h"
 
+#include <algorithm>
 #include <new>
 
 namespace skimap {
@@ -27,7 +28,9 @@ void* NodePool::Allocate(size_t bytes) {
     bump_ = chunks_.back().get();
     bump_left_ = chunk;
     reserved_bytes_ += chunk;
-    if (next_chunk_bytes_ < kMaxChunkBytes) next_chunk_bytes_ *= 2;
+    // Grow by a quarter of what is held, so unused chunk tails stay below ~20%.
+    next_chunk_bytes_ =
+        std::clamp(reserved_bytes_ / 4 / kAlign * kAlign, kFirstChunkBytes, kMaxChunkBytes);
   }
   void* block = bump_;
   bump_ += size;
@@ -46,6 +49,16 @@ void NodePool::Free(void* block, size_t bytes) {
   auto* free_block = static_cast<FreeBlock*>(block);
   free_block->next = free_[size / kAlign];
   free_[size / kAlign] = free_block;
+  if (in_use_bytes_ == 0) ReleaseChunks();
+}
+
+void NodePool::ReleaseChunks() {
+  free_.fill(nullptr);
+  chunks_.clear();
+  bump_ = nullptr;
+  bump_left_ = 0;
+  next_chunk_bytes_ = kFirstChunkBytes;
+  reserved_bytes_ = 0;
 }
 
 }  // namespace skimap

@@ -1,9 +1,10 @@
 // NodePool: a small-object allocator for skip-list nodes.
 //
 // Memory is carved from chunks obtained with operator new (the first chunk is small, later
-// ones double up to kMaxChunkBytes, so a pool that holds three nodes does not cost 64 KiB).
-// Freed blocks go to a free list per size class and are reused by the next allocation of
-// the same size; chunks are returned to the system only when the pool is destroyed.
+// ones a quarter of what the pool holds, up to kMaxChunkBytes: a pool of three nodes does
+// not cost 64 KiB, and unused chunk tails stay under ~20%). Freed blocks go to a free list
+// per size class and are reused by the next allocation of the same size; when the last
+// block is freed the pool returns all its chunks to the system.
 // Blocks larger than kMaxPooledBytes bypass the pool (plain operator new / delete).
 //
 // Thread safety: not thread safe; the owner serializes access (SkiMap gives each x column
@@ -46,6 +47,7 @@ class NodePool {
     FreeBlock* next;
   };
   static size_t RoundUp(size_t bytes) { return (bytes + kAlign - 1) & ~(kAlign - 1); }
+  void ReleaseChunks();
 
   std::array<FreeBlock*, kMaxPooledBytes / kAlign + 1> free_{};
   std::vector<std::unique_ptr<std::byte[]>> chunks_;

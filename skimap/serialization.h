@@ -60,11 +60,11 @@ std::string SerializeMap(const SkiMap<V>& map) {
 template <Voxel V>
 absl::StatusOr<std::unique_ptr<SkiMap<V>>> DeserializeMap(std::string_view bytes,
                                                           typename SkiMap<V>::Options options) {
+  if (bytes.size() >= 4 && bytes.substr(0, 4) != std::string_view(kMapMagic, 4)) {
+    return absl::InvalidArgumentError("map file: bad magic (not a SkiMap volume file)");
+  }
   if (bytes.size() < kMapHeaderBytes + 4) {
     return absl::DataLossError(absl::StrCat("map file: truncated (", bytes.size(), " bytes)"));
-  }
-  if (bytes.substr(0, 4) != std::string_view(kMapMagic, 4)) {
-    return absl::InvalidArgumentError("map file: bad magic (not a SkiMap volume file)");
   }
   const std::string_view body = bytes.substr(0, bytes.size() - 4);
   Decoder crc_in(bytes.substr(bytes.size() - 4));
@@ -115,7 +115,7 @@ absl::StatusOr<std::unique_ptr<SkiMap<V>>> DeserializeMap(std::string_view bytes
     batch.AddKey(k, v);
   }
   if (d.remaining() != 0) return absl::DataLossError("map file: trailing bytes");
-  batch.Finalize();  // already sorted and unique: O(n) check only
+  batch.Finalize();  // already sorted and unique; the radix sort keeps that order
   map->Integrate(batch);
   return map;
 }

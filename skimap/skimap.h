@@ -60,9 +60,9 @@ template <Voxel V>
 class SkiMap {
  public:
   struct Options {
-    double resolution = 0.05;  // metres per voxel edge, > 0
-    Point3 origin;             // world position of the corner of voxel (0, 0, 0)
-    SkipListOptions lists;     // height policy and RNG seed of every skip list
+    double resolution = 0.05;    // metres per voxel edge, > 0
+    Point3 origin;               // world position of the corner of voxel (0, 0, 0)
+    SkipListOptions lists;       // height policy and RNG seed of every skip list
     ThreadPool* pool = nullptr;  // threads for batch writes (not owned); nullptr = caller
   };
   using ZList = SkipListCore<int32_t, V>;

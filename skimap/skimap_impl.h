@@ -187,8 +187,7 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
 }
 
 template <Voxel V>
-WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x,
-                                    const typename VoxelBatch<V>::Item* begin,
+WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBatch<V>::Item* begin,
                                     const typename VoxelBatch<V>::Item* end, bool integrate)
     ABSL_NO_THREAD_SAFETY_ANALYSIS {  // caller holds c.mu
   using YList = typename Column::YList;
@@ -268,8 +267,8 @@ void SkiMap<V>::ForEachInBox(const KeyBox& box, Fn&& fn) const {
     absl::ReaderMutexLock lock(&column.mu);
     for (auto* yn = column.ys.LowerBound(box.min.y); yn != nullptr && yn->key <= box.max.y;
          yn = yn->next[0]) {
-      for (const ZNode* zn = yn->value.LowerBound(box.min.z);
-           zn != nullptr && zn->key <= box.max.z; zn = zn->next[0]) {
+      for (const ZNode* zn = yn->value.LowerBound(box.min.z); zn != nullptr && zn->key <= box.max.z;
+           zn = zn->next[0]) {
         fn(VoxelKey{xn->key, yn->key, zn->key}, zn->value);
       }
     }

@@ -40,10 +40,10 @@ class ThreadPool {
   std::condition_variable work_cv_;
   std::condition_variable done_cv_;
   const std::function<void(size_t, size_t)>* fn_ = nullptr;  // guarded by mu_
-  size_t n_ = 0;                                            // guarded by mu_
-  size_t generation_ = 0;                                   // guarded by mu_
-  size_t pending_ = 0;                                      // guarded by mu_
-  bool stop_ = false;                                       // guarded by mu_
+  size_t n_ = 0;                                             // guarded by mu_
+  size_t generation_ = 0;                                    // guarded by mu_
+  size_t pending_ = 0;                                       // guarded by mu_
+  bool stop_ = false;                                        // guarded by mu_
   const size_t worker_count_;
   std::vector<std::thread> threads_;
 };

@@ -18,16 +18,16 @@ namespace skimap {
 
 template <class V>
 concept Voxel = std::default_initializable<V> && std::copyable<V> &&
-                requires(V v, const V& c, Encoder& e, Decoder& d) {
-                  v += c;
-                  v -= c;
-                  { c.IsEmpty() } -> std::convertible_to<bool>;
-                  { c.Weight() } -> std::convertible_to<float>;
-                  { c.HeapBytes() } -> std::convertible_to<size_t>;
-                  c.Encode(e);
-                  { V::Decode(d, &v) } -> std::convertible_to<bool>;
-                  { V::kTypeId } -> std::convertible_to<uint32_t>;
-                };
+    requires(V v, const V& c, Encoder& e, Decoder& d) {
+  v += c;
+  v -= c;
+  { c.IsEmpty() } -> std::convertible_to<bool>;
+  { c.Weight() } -> std::convertible_to<float>;
+  { c.HeapBytes() } -> std::convertible_to<size_t>;
+  c.Encode(e);
+  { V::Decode(d, &v) } -> std::convertible_to<bool>;
+  { V::kTypeId } -> std::convertible_to<uint32_t>;
+};
 
 // Weights at or below this count as zero (absorbs float rounding of de-integration).
 inline constexpr float kEmptyWeight = 1e-4f;

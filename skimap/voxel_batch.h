@@ -100,8 +100,8 @@ void VoxelBatch<V>::Finalize() {
     // stable, so equal keys keep their insertion order.
     for (size_t i = 0; i < n; ++i) {
       const VoxelKey& k = items_[i].key;
-      const uint64_t rel = (uint64_t(k.x - lo.x) << (by + bz)) | (uint64_t(k.y - lo.y) << bz) |
-                           uint64_t(k.z - lo.z);
+      const uint64_t rel =
+          (uint64_t(k.x - lo.x) << (by + bz)) | (uint64_t(k.y - lo.y) << bz) | uint64_t(k.z - lo.z);
       sort_a_[i] = (rel << ib) | i;
     }
     sort_b_.resize(n);

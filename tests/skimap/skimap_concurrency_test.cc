@@ -1,0 +1,97 @@
+// Readers running while one writer integrates and de-integrates batches in parallel over
+// x columns. Run under ThreadSanitizer by scripts/test.sh (label "concurrency"); the
+// assertions check the documented visibility model: each x column is seen atomically.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <map>
+#include <thread>
+#include <vector>
+
+#include "skimap/map_queries.h"
+#include "skimap/serialization.h"
+#include "skimap/skimap.h"
+
+namespace skimap {
+namespace {
+
+constexpr int kSide = 40;  // slab of kSide x kSide x 4 voxels per batch
+
+VoxelBatch<RGBWeightedVoxel> Slab(int z0) {
+  VoxelBatch<RGBWeightedVoxel> batch;
+  for (int x = -kSide / 2; x < kSide / 2; ++x) {
+    for (int y = -kSide / 2; y < kSide / 2; ++y) {
+      for (int z = z0; z < z0 + 4; ++z) batch.AddKey({x, y, z}, RGBWeightedVoxel(x & 255, 0, 0, 1));
+    }
+  }
+  batch.Finalize();
+  return batch;
+}
+
+TEST(SkiMapConcurrencyTest, ReadersSeeWholeColumnsWhileOneWriterWrites) {
+  ThreadPool pool(1);
+  SkiMap<RGBWeightedVoxel> map({.resolution = 0.05, .pool = &pool});
+  // A permanent floor so readers always have something, plus a slab that comes and goes.
+  const VoxelBatch<RGBWeightedVoxel> floor = Slab(-4), slab = Slab(10);
+  map.Integrate(floor);
+  const size_t per_column = kSide * 4;
+
+  std::atomic<bool> stop{false};
+  std::atomic<int> reads{0};
+  std::vector<std::thread> readers;
+  for (int r = 0; r < 3; ++r) {
+    readers.emplace_back([&, r] {
+      while (!stop.load()) {
+        std::map<int32_t, size_t> slab_per_x, floor_per_x;
+        if (r == 0) {
+          map.ForEachInBox(KeyBox{}, [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
+            (k.z >= 10 ? slab_per_x : floor_per_x)[k.x] += 1;
+            EXPECT_FLOAT_EQ(v.Weight(), 1);
+          });
+        } else if (r == 1) {
+          map.RadiusSearch({0, 0, 0}, 5.0, [&](const VoxelKey& k, const RGBWeightedVoxel&) {
+            (k.z >= 10 ? slab_per_x : floor_per_x)[k.x] += 1;
+          });
+          EXPECT_TRUE(ComputeOccupancyGrid(map, {}).ok());
+          EXPECT_TRUE(ComputeHeightMap(map, {}).ok());
+        } else {
+          EXPECT_GT(map.MemoryUsage(), 0u);
+          EXPECT_TRUE(map.Bounds().has_value());
+          EXPECT_TRUE(map.Find({0, 0, -4}).has_value());
+          EXPECT_FALSE(SerializeMap(map).empty());
+        }
+        for (auto& [x, n] : floor_per_x) EXPECT_EQ(n, per_column) << "floor column " << x;
+        for (auto& [x, n] : slab_per_x) EXPECT_EQ(n, per_column) << "slab column " << x;
+        reads.fetch_add(1);
+      }
+    });
+  }
+  for (int i = 0; i < 150; ++i) {
+    const WriteStats in = map.Integrate(slab);
+    ASSERT_EQ(in.voxels_created, slab.size());
+    const WriteStats out = map.Deintegrate(slab);
+    ASSERT_EQ(out.voxels_removed, slab.size());
+  }
+  stop.store(true);
+  for (std::thread& t : readers) t.join();
+  EXPECT_GT(reads.load(), 3);
+  EXPECT_EQ(map.size(), floor.size());
+}
+
+TEST(SkiMapConcurrencyTest, ConcurrentSingleVoxelWritersAreSerialized) {
+  SkiMap<WeightVoxel> map({.resolution = 0.1});
+  std::vector<std::thread> writers;
+  for (int t = 0; t < 4; ++t) {
+    writers.emplace_back([&] {
+      for (int i = 0; i < 2000; ++i) map.IntegrateKey({i % 50, 0, 0}, {1});
+    });
+  }
+  for (std::thread& t : writers) t.join();
+  double total = 0;
+  map.ForEach([&](const VoxelKey&, const WeightVoxel& v) { total += v.weight; });
+  EXPECT_EQ(total, 8000);
+  EXPECT_EQ(map.size(), 50u);
+}
+
+}  // namespace
+}  // namespace skimap

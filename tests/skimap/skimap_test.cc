@@ -1,0 +1,246 @@
+#include "skimap/skimap.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "skimap/label_voxel.h"
+
+namespace skimap {
+namespace {
+
+using Model = std::map<VoxelKey, float>;  // reference: key -> weight
+
+Model Snapshot(const SkiMap<WeightVoxel>& map) {
+  Model out;
+  VoxelKey prev{kMinKey, kMinKey, kMinKey};
+  bool first = true;
+  map.ForEach([&](const VoxelKey& k, const WeightVoxel& v) {
+    EXPECT_TRUE(first || prev < k) << "ForEach must visit keys in ascending order";
+    first = false;
+    prev = k;
+    out[k] = v.weight;
+  });
+  return out;
+}
+
+void ExpectSameAs(const SkiMap<WeightVoxel>& map, const Model& model) {
+  EXPECT_EQ(map.size(), model.size());
+  EXPECT_EQ(Snapshot(map), model);
+}
+
+// Applies `+= w` to the model the way the map does: empty voxels disappear.
+void ModelAdd(Model& m, const VoxelKey& k, float w) {
+  float& v = m[k];
+  v += w;
+  if (v <= kEmptyWeight) m.erase(k);
+}
+void ModelSub(Model& m, const VoxelKey& k, float w) {
+  auto it = m.find(k);
+  if (it == m.end()) return;
+  it->second -= w;
+  if (it->second <= kEmptyWeight) m.erase(it);
+}
+
+TEST(SkiMapTest, KeysUseFloorSemanticsForNegativeCoordinates) {
+  Grid g(0.05);
+  VoxelKey k;
+  ASSERT_TRUE(g.ToKey(-0.001, 0.0, 0.049, &k));
+  EXPECT_EQ(k, (VoxelKey{-1, 0, 0}));
+  ASSERT_TRUE(g.ToKey(-0.05, -0.0500001, 0.05, &k));
+  EXPECT_EQ(k, (VoxelKey{-1, -2, 1}));
+  Grid shifted(0.1, {1.0, -2.0, 0.5});
+  ASSERT_TRUE(shifted.ToKey(0.95, -2.05, 0.5, &k));
+  EXPECT_EQ(k, (VoxelKey{-1, -1, 0}));
+  const Point3 c = shifted.Center(k);
+  EXPECT_NEAR(c.x, 0.95, 1e-12);
+  EXPECT_NEAR(c.y, -2.05, 1e-12);
+  EXPECT_NEAR(c.z, 0.55, 1e-12);
+}
+
+TEST(SkiMapTest, KeyRangeEdgesAreRejectedNotWrapped) {
+  Grid g(1.0);
+  VoxelKey k;
+  EXPECT_TRUE(g.ToKey(kMaxKey + 0.999, kMinKey, 0, &k));
+  EXPECT_EQ(k.x, kMaxKey);
+  EXPECT_EQ(k.y, kMinKey);
+  EXPECT_FALSE(g.ToKey(kMaxKey + 1.0, 0, 0, &k));
+  EXPECT_FALSE(g.ToKey(0, kMinKey - 0.001, 0, &k));
+  EXPECT_FALSE(g.ToKey(0, 0, NAN, &k));
+  EXPECT_FALSE(g.ToKey(INFINITY, 0, 0, &k));
+
+  SkiMap<WeightVoxel> map({.resolution = 1.0});
+  EXPECT_EQ(map.Integrate({1e9, 0, 0}, WeightVoxel{1}).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(map.empty());
+  VoxelBatch<WeightVoxel> batch;
+  EXPECT_FALSE(batch.Add(map.grid(), 0, -1e9, 0, WeightVoxel{1}));
+  EXPECT_TRUE(batch.Add(map.grid(), kMinKey, kMaxKey, 0, WeightVoxel{1}));
+  EXPECT_EQ(batch.rejected(), 1u);
+  batch.Finalize();
+  map.Integrate(batch);
+  // Extreme keys survive the tree and the box query.
+  ASSERT_TRUE(map.Find({kMinKey, kMaxKey, 0}).has_value());
+  const std::optional<KeyBox> b = map.Bounds();
+  ASSERT_TRUE(b.has_value());
+  EXPECT_EQ(b->min.x, kMinKey);
+  EXPECT_EQ(b->max.y, kMaxKey);
+}
+
+TEST(SkiMapTest, RandomOperationsMatchReferenceModel) {
+  for (uint32_t seed : {3u, 99u}) {
+    ThreadPool pool(1);
+    SkiMap<WeightVoxel> map({.resolution = 0.1, .lists = {.seed = seed}, .pool = &pool});
+    Model model;
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<int> coord(-12, 12);
+    auto random_key = [&] { return VoxelKey{coord(rng), coord(rng), coord(rng)}; };
+    for (int step = 0; step < 3000; ++step) {
+      const int op = rng() % 6;
+      if (op == 0) {
+        const VoxelKey k = random_key();
+        const float w = 1 + rng() % 3;
+        map.IntegrateKey(k, WeightVoxel{w});
+        ModelAdd(model, k, w);
+      } else if (op == 1) {
+        const VoxelKey k = random_key();
+        const float w = 1 + rng() % 3;
+        map.DeintegrateKey(k, WeightVoxel{w});
+        ModelSub(model, k, w);
+      } else if (op == 2) {
+        const VoxelKey k = random_key();
+        EXPECT_EQ(map.Erase(k), model.erase(k) == 1);
+      } else if (op == 3) {
+        // A batch large enough to run in parallel, with duplicates and negative keys.
+        VoxelBatch<WeightVoxel> batch;
+        const bool add = rng() % 3 != 0;
+        std::map<VoxelKey, float> sums;
+        for (int i = 0; i < 6000; ++i) {
+          const VoxelKey k = random_key();
+          batch.AddKey(k, WeightVoxel{1});
+          sums[k] += 1;
+        }
+        batch.Finalize();
+        ASSERT_EQ(batch.size(), sums.size());
+        if (add) {
+          map.Integrate(batch);
+          for (auto& [k, w] : sums) ModelAdd(model, k, w);
+        } else {
+          map.Deintegrate(batch);
+          for (auto& [k, w] : sums) ModelSub(model, k, w);
+        }
+      } else if (op == 4) {
+        KeyBox box{random_key(), random_key()};
+        Model expected, got;
+        for (auto& [k, w] : model) {
+          if (box.Contains(k)) expected[k] = w;
+        }
+        map.ForEachInBox(box, [&](const VoxelKey& k, const WeightVoxel& v) { got[k] = v.weight; });
+        EXPECT_EQ(got, expected);
+      } else {
+        const Point3 c{coord(rng) * 0.1, coord(rng) * 0.1, coord(rng) * 0.1};
+        const double r = (rng() % 100) * 0.01;
+        Model expected, got;
+        for (auto& [k, w] : model) {
+          const Point3 p = map.grid().Center(k);
+          const double d2 =
+              (p.x - c.x) * (p.x - c.x) + (p.y - c.y) * (p.y - c.y) + (p.z - c.z) * (p.z - c.z);
+          if (d2 <= r * r) expected[k] = w;
+        }
+        map.RadiusSearch(c, r, [&](const VoxelKey& k, const WeightVoxel& v) { got[k] = v.weight; });
+        EXPECT_EQ(got, expected) << "radius " << r;
+      }
+      if (step % 500 == 0) ExpectSameAs(map, model);
+    }
+    ExpectSameAs(map, model);
+  }
+}
+
+TEST(SkiMapTest, FindReturnsTheFusedValue) {
+  SkiMap<RGBWeightedVoxel> map({.resolution = 0.02});
+  ASSERT_TRUE(map.Integrate({0.011, -0.5, 1.0}, RGBWeightedVoxel(200, 100, 0, 1)).ok());
+  ASSERT_TRUE(map.Integrate({0.019, -0.499, 1.001}, RGBWeightedVoxel(100, 100, 100, 1)).ok());
+  VoxelKey k;
+  ASSERT_TRUE(map.grid().ToKey(0.015, -0.49, 1.01, &k));
+  const std::optional<RGBWeightedVoxel> v = map.Find(k);
+  ASSERT_TRUE(v.has_value());
+  EXPECT_FLOAT_EQ(v->Weight(), 2);
+  EXPECT_FLOAT_EQ(v->Red(), 150);
+  EXPECT_FLOAT_EQ(v->Blue(), 50);
+  EXPECT_FALSE(map.Find({k.x + 1, k.y, k.z}).has_value());
+}
+
+TEST(SkiMapTest, DeintegrationRestoresTheEmptyMapAndFreesMemory) {
+  ThreadPool pool(1);
+  SkiMap<RGBWeightedVoxel> map({.resolution = 0.01, .pool = &pool});
+  const size_t empty_bytes = map.MemoryUsage();
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-2, 2);
+  std::vector<VoxelBatch<RGBWeightedVoxel>> frames(4);
+  for (auto& batch : frames) {
+    for (int i = 0; i < 50000; ++i) {
+      batch.Add(map.grid(), u(rng), u(rng), u(rng) * 0.1, RGBWeightedVoxel(10, 20, 30, 1));
+    }
+    batch.Finalize();
+    map.Integrate(batch);
+  }
+  const size_t full_bytes = map.MemoryUsage();
+  EXPECT_GT(full_bytes, empty_bytes + 100000);
+  for (auto& batch : frames) map.Deintegrate(batch);
+  EXPECT_TRUE(map.empty());
+  EXPECT_EQ(map.MemoryUsage(), empty_bytes);
+  EXPECT_FALSE(map.Bounds().has_value());
+  // Memory is reused: a second fill costs no more than the first.
+  for (auto& batch : frames) map.Integrate(batch);
+  EXPECT_LE(map.MemoryUsage(), full_bytes + full_bytes / 20);
+}
+
+TEST(SkiMapTest, ParallelAndSerialBatchesGiveTheSameMap) {
+  ThreadPool pool(3);
+  SkiMap<WeightVoxel> parallel({.resolution = 0.05, .pool = &pool});
+  SkiMap<WeightVoxel> serial({.resolution = 0.05});
+  std::mt19937 rng(8);
+  std::normal_distribution<double> n(0, 1.5);
+  VoxelBatch<WeightVoxel> batch;
+  for (int i = 0; i < 200000; ++i) batch.Add(serial.grid(), n(rng), n(rng), n(rng), {1});
+  batch.Finalize();
+  const WriteStats a = parallel.Integrate(batch);
+  const WriteStats b = serial.Integrate(batch);
+  EXPECT_EQ(a.voxels_created, b.voxels_created);
+  EXPECT_EQ(a.voxels_created, batch.size());
+  EXPECT_EQ(Snapshot(parallel), Snapshot(serial));
+  double total = 0;
+  parallel.ForEach([&](const VoxelKey&, const WeightVoxel& v) { total += v.weight; });
+  EXPECT_DOUBLE_EQ(total, 200000 - batch.rejected());
+}
+
+TEST(SkiMapTest, MultiLabelVoxelsFuseAndEmptyOut) {
+  SkiMap<MultiLabelVoxel> map({.resolution = 0.01});
+  ASSERT_TRUE(map.Integrate({0, 0, 0}, MultiLabelVoxel(4, 2)).ok());
+  ASSERT_TRUE(map.Integrate({0, 0, 0}, MultiLabelVoxel(6, 3)).ok());
+  std::optional<MultiLabelVoxel> v = map.Find({0, 0, 0});
+  ASSERT_TRUE(v.has_value());
+  EXPECT_EQ(v->Heaviest().label, 6u);
+  EXPECT_GT(map.MemoryUsage(), 0u);
+  ASSERT_TRUE(map.Deintegrate({0, 0, 0}, MultiLabelVoxel(6, 3)).ok());
+  EXPECT_EQ(map.Find({0, 0, 0})->Heaviest().label, 4u);
+  ASSERT_TRUE(map.Deintegrate({0, 0, 0}, MultiLabelVoxel(4, 2)).ok());
+  EXPECT_TRUE(map.empty());
+}
+
+TEST(SkiMapTest, ClearRemovesEverything) {
+  SkiMap<WeightVoxel> map({.resolution = 0.1});
+  const size_t empty_bytes = map.MemoryUsage();
+  for (int i = 0; i < 100; ++i) map.IntegrateKey({i, -i, i % 3}, {1});
+  map.Clear();
+  EXPECT_TRUE(map.empty());
+  EXPECT_EQ(map.MemoryUsage(), empty_bytes);
+  int visited = 0;
+  map.ForEach([&](const VoxelKey&, const WeightVoxel&) { ++visited; });
+  EXPECT_EQ(visited, 0);
+}
+
+}  // namespace
+}  // namespace skimap
