@@ -35,7 +35,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
-#include "absl/synchronization/mutex.h"
+#include "skimap/rw_lock.h"
 #include "skimap/grid.h"
 #include "skimap/skip_list.h"
 #include "skimap/thread_pool.h"
@@ -159,8 +159,8 @@ class SkiMap {
 
   const Options options_;
   const Grid grid_;
-  absl::Mutex writer_mu_;
-  mutable absl::Mutex x_mu_;
+  RwLock writer_mu_;
+  mutable RwLock x_mu_;
   XList xs_ ABSL_GUARDED_BY(x_mu_);
   std::atomic<size_t> size_{0};
 };

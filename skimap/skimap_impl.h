@@ -28,7 +28,7 @@ struct SkiMap<V>::Column {
     for (auto* n = ys.First(); n != nullptr; n = n->next[0]) n->value.Clear(arena);
     ys.Clear(arena);
   }
-  mutable absl::Mutex mu;
+  mutable RwLock mu;
   SkipListArena arena ABSL_GUARDED_BY(mu);
   YList ys ABSL_GUARDED_BY(mu);
   size_t heap_bytes ABSL_GUARDED_BY(mu) = 0;  // sum of V::HeapBytes in this column
@@ -72,34 +72,34 @@ absl::Status SkiMap<V>::Deintegrate(const Point3& p, const V& data) {
 template <Voxel V>
 WriteStats SkiMap<V>::IntegrateKey(const VoxelKey& key, const V& data) {
   const typename VoxelBatch<V>::Item item{key, data};
-  absl::MutexLock lock(&writer_mu_);
+  WriterLock lock(&writer_mu_);
   return Apply(&item, 1, /*integrate=*/true);
 }
 
 template <Voxel V>
 WriteStats SkiMap<V>::DeintegrateKey(const VoxelKey& key, const V& data) {
   const typename VoxelBatch<V>::Item item{key, data};
-  absl::MutexLock lock(&writer_mu_);
+  WriterLock lock(&writer_mu_);
   return Apply(&item, 1, /*integrate=*/false);
 }
 
 template <Voxel V>
 WriteStats SkiMap<V>::Integrate(const VoxelBatch<V>& batch) {
   assert(batch.finalized());
-  absl::MutexLock lock(&writer_mu_);
+  WriterLock lock(&writer_mu_);
   return Apply(batch.items().data(), batch.size(), /*integrate=*/true);
 }
 
 template <Voxel V>
 WriteStats SkiMap<V>::Deintegrate(const VoxelBatch<V>& batch) {
   assert(batch.finalized());
-  absl::MutexLock lock(&writer_mu_);
+  WriterLock lock(&writer_mu_);
   return Apply(batch.items().data(), batch.size(), /*integrate=*/false);
 }
 
 template <Voxel V>
 bool SkiMap<V>::Erase(const VoxelKey& key) {
-  absl::MutexLock lock(&writer_mu_);
+  WriterLock lock(&writer_mu_);
   std::optional<V> current = Find(key);
   if (!current) return false;
   const typename VoxelBatch<V>::Item item{key, *current};
@@ -110,8 +110,8 @@ bool SkiMap<V>::Erase(const VoxelKey& key) {
 
 template <Voxel V>
 void SkiMap<V>::Clear() {
-  absl::MutexLock lock(&writer_mu_);
-  absl::MutexLock x_lock(&x_mu_);
+  WriterLock lock(&writer_mu_);
+  WriterLock x_lock(&x_mu_);
   xs_.Clear();
   size_.store(0, std::memory_order_relaxed);
 }
@@ -127,7 +127,7 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
   }
   bool missing = false;
   {
-    absl::ReaderMutexLock lock(&x_mu_);
+    ReaderLock lock(&x_mu_);
     for (Run& r : runs) {
       const std::unique_ptr<Column>* c = xs_.Find(r.x);
       r.column = c != nullptr ? c->get() : nullptr;
@@ -135,7 +135,7 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
     }
   }
   if (integrate && missing) {
-    absl::MutexLock lock(&x_mu_);
+    WriterLock lock(&x_mu_);
     for (Run& r : runs) {
       if (r.column != nullptr) continue;
       auto column = std::make_unique<Column>(
@@ -149,7 +149,7 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
     for (size_t i = first; i < last; ++i) {
       Run& r = runs[i];
       if (r.column == nullptr) continue;
-      absl::MutexLock lock(&r.column->mu);
+      WriterLock lock(&r.column->mu);
       r.stats = ApplyToColumn(*r.column, r.x, items + r.begin, items + r.end, integrate);
     }
   };
@@ -175,11 +175,11 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
   for (const Run& r : runs) {
     total += r.stats;
     if (r.column == nullptr || r.stats.voxels_removed == 0) continue;
-    absl::ReaderMutexLock lock(&r.column->mu);
+    ReaderLock lock(&r.column->mu);
     if (r.column->ys.empty()) emptied.push_back(r.x);
   }
   if (!emptied.empty()) {
-    absl::MutexLock lock(&x_mu_);
+    WriterLock lock(&x_mu_);
     for (int32_t x : emptied) xs_.Erase(x);
   }
   size_.fetch_add(total.voxels_created - total.voxels_removed, std::memory_order_relaxed);
@@ -244,11 +244,11 @@ WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBa
 
 template <Voxel V>
 std::optional<V> SkiMap<V>::Find(const VoxelKey& key) const {
-  absl::ReaderMutexLock x_lock(&x_mu_);
+  ReaderLock x_lock(&x_mu_);
   const std::unique_ptr<Column>* c = xs_.Find(key.x);
   if (c == nullptr) return std::nullopt;
   const Column& column = **c;
-  absl::ReaderMutexLock lock(&column.mu);
+  ReaderLock lock(&column.mu);
   const auto* yn = column.ys.Find(key.y);
   if (yn == nullptr) return std::nullopt;
   const ZNode* zn = yn->value.Find(key.z);
@@ -260,11 +260,11 @@ template <Voxel V>
 template <class Fn>
 void SkiMap<V>::ForEachInBox(const KeyBox& box, Fn&& fn) const {
   if (box.empty()) return;
-  absl::ReaderMutexLock x_lock(&x_mu_);
+  ReaderLock x_lock(&x_mu_);
   for (auto* xn = xs_.LowerBound(box.min.x); xn != nullptr && xn->key <= box.max.x;
        xn = xn->next[0]) {
     const Column& column = *xn->value;
-    absl::ReaderMutexLock lock(&column.mu);
+    ReaderLock lock(&column.mu);
     for (auto* yn = column.ys.LowerBound(box.min.y); yn != nullptr && yn->key <= box.max.y;
          yn = yn->next[0]) {
       for (const ZNode* zn = yn->value.LowerBound(box.min.z); zn != nullptr && zn->key <= box.max.z;
@@ -284,7 +284,7 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
   int32_t x0, x1;
   grid_.CenterRange(c.x - radius, c.x + radius, o.x, &x0, &x1);
   if (x0 > x1) return;
-  absl::ReaderMutexLock x_lock(&x_mu_);
+  ReaderLock x_lock(&x_mu_);
   for (auto* xn = xs_.LowerBound(x0); xn != nullptr && xn->key <= x1; xn = xn->next[0]) {
     const double dx = grid_.AxisCenter(xn->key, o.x) - c.x;
     const double rem_x = r2 - dx * dx;
@@ -294,7 +294,7 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
     grid_.CenterRange(c.y - sy, c.y + sy, o.y, &y0, &y1);
     if (y0 > y1) continue;
     const Column& column = *xn->value;
-    absl::ReaderMutexLock lock(&column.mu);
+    ReaderLock lock(&column.mu);
     for (auto* yn = column.ys.LowerBound(y0); yn != nullptr && yn->key <= y1; yn = yn->next[0]) {
       const double dy = grid_.AxisCenter(yn->key, o.y) - c.y;
       const double rem_xy = rem_x - dy * dy;
@@ -315,10 +315,10 @@ template <Voxel V>
 template <class Fn>
 void SkiMap<V>::ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32_t max_y,
                               Fn&& fn) const {
-  absl::ReaderMutexLock x_lock(&x_mu_);
+  ReaderLock x_lock(&x_mu_);
   for (auto* xn = xs_.LowerBound(min_x); xn != nullptr && xn->key <= max_x; xn = xn->next[0]) {
     const Column& column = *xn->value;
-    absl::ReaderMutexLock lock(&column.mu);
+    ReaderLock lock(&column.mu);
     for (auto* yn = column.ys.LowerBound(min_y); yn != nullptr && yn->key <= max_y;
          yn = yn->next[0]) {
       fn(xn->key, yn->key, ZColumn(yn->value));
@@ -328,14 +328,14 @@ void SkiMap<V>::ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32
 
 template <Voxel V>
 std::optional<KeyBox> SkiMap<V>::Bounds() const {
-  absl::ReaderMutexLock x_lock(&x_mu_);
+  ReaderLock x_lock(&x_mu_);
   if (xs_.empty()) return std::nullopt;
   KeyBox b{{kMaxKey, kMaxKey, kMaxKey}, {kMinKey, kMinKey, kMinKey}};
   b.min.x = xs_.First()->key;
   b.max.x = xs_.Last()->key;
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
-    absl::ReaderMutexLock lock(&column.mu);
+    ReaderLock lock(&column.mu);
     b.min.y = std::min(b.min.y, column.ys.First()->key);
     b.max.y = std::max(b.max.y, column.ys.Last()->key);
     for (auto* yn = column.ys.First(); yn != nullptr; yn = yn->next[0]) {
@@ -348,11 +348,11 @@ std::optional<KeyBox> SkiMap<V>::Bounds() const {
 
 template <Voxel V>
 size_t SkiMap<V>::MemoryUsage() const {
-  absl::ReaderMutexLock x_lock(&x_mu_);
+  ReaderLock x_lock(&x_mu_);
   size_t bytes = sizeof(*this) - sizeof(xs_) + xs_.MemoryUsage();
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
-    absl::ReaderMutexLock lock(&column.mu);
+    ReaderLock lock(&column.mu);
     bytes += sizeof(Column) + column.arena.pool().BytesReserved() + column.heap_bytes;
   }
   return bytes;
