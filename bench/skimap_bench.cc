@@ -1,0 +1,86 @@
+// SkiMap side of the side-by-side benchmarks: batch integration (with and without the
+// thread pool) and the map's own query API. See bench_harness.h for the loops.
+#include <cmath>
+
+#include "bench/bench_harness.h"
+#include "skimap/map_queries.h"
+#include "skimap/skimap.h"
+
+namespace skimap::bench {
+namespace {
+
+// SkiMap<WeightVoxel>; `kWorkers` threads in the pool besides the caller (0 = no pool).
+template <int kWorkers>
+class SkiMapAdapter {
+ public:
+  static constexpr bool kStoresPoints = false;
+  explicit SkiMapAdapter(double res) : map_({.resolution = res, .pool = Pool()}) {}
+
+  // One frame: aggregate per voxel in a batch, then one tree update per distinct voxel.
+  void Insert(const Cloud& cloud) {
+    batch_.Clear();
+    batch_.Reserve(cloud.size());
+    for (const PointF& p : cloud) batch_.Add(map_.grid(), p.x, p.y, p.z, WeightVoxel{1});
+    batch_.Finalize();
+    map_.Integrate(batch_);
+  }
+  size_t RadiusCount(const PointF& c, double r) const {
+    size_t n = 0;
+    map_.RadiusSearch({c.x, c.y, c.z}, r, [&](const VoxelKey&, const WeightVoxel&) { ++n; });
+    return n;
+  }
+  size_t BoxCount(const PointF& lo, const PointF& hi) const {
+    KeyBox box;
+    if (!map_.grid().ToKey(lo.x, lo.y, lo.z, &box.min) ||
+        !map_.grid().ToKey(hi.x, hi.y, hi.z, &box.max)) {
+      return 0;
+    }
+    size_t n = 0;
+    map_.ForEachInBox(box, [&](const VoxelKey&, const WeightVoxel&) { ++n; });
+    return n;
+  }
+  double VisitAll() const {
+    double sum = 0;
+    map_.ForEach([&](const VoxelKey&, const WeightVoxel& v) { sum += v.weight; });
+    return sum;
+  }
+  size_t HeightMap() const {
+    size_t known = 0;
+    for (float h : ComputeHeightMap(map_, {})->heights) known += !std::isnan(h);
+    return known;
+  }
+  size_t OccupancyGrid() const {
+    size_t occupied = 0;
+    for (int8_t c : ComputeOccupancyGrid(map_, {})->cells) {
+      occupied += c == OccupancyGrid::kOccupied;
+    }
+    return occupied;
+  }
+  size_t Voxels() const { return map_.size(); }
+  size_t LibBytes() const { return map_.MemoryUsage(); }
+  void ReleaseScratch() { batch_ = {}; }
+
+ private:
+  static ThreadPool* Pool() {
+    if constexpr (kWorkers == 0) {
+      return nullptr;
+    } else {
+      static ThreadPool pool(kWorkers);
+      return &pool;
+    }
+  }
+  SkiMap<WeightVoxel> map_;
+  VoxelBatch<WeightVoxel> batch_;
+};
+
+const bool registered = [] {
+  RegisterInserts<SkiMapAdapter<0>>("SkiMap");
+  RegisterInserts<SkiMapAdapter<1>>("SkiMapPool");
+  RegisterRadius<SkiMapAdapter<0>>("SkiMap");
+  RegisterMapQueries<SkiMapAdapter<0>>("SkiMap");
+  RegisterMemory<SkiMapAdapter<0>>("SkiMap");
+  return true;
+}();
+
+}  // namespace
+}  // namespace skimap::bench
