@@ -28,6 +28,12 @@ struct VoxelKey {
   friend auto operator<=>(const VoxelKey&, const VoxelKey&) = default;
 };
 
+// Equality without short-circuit branches (keys of neighbouring points differ
+// unpredictably in one component; a branchy compare mispredicts).
+inline bool SameKey(const VoxelKey& a, const VoxelKey& b) {
+  return ((a.x ^ b.x) | (a.y ^ b.y) | (a.z ^ b.z)) == 0;
+}
+
 // Packs a key into 63 bits that sort like (x, y, z) lexicographically.
 inline uint64_t PackKey(const VoxelKey& k) {
   auto u = [](int32_t v) { return static_cast<uint64_t>(v - kMinKey); };

@@ -35,8 +35,8 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
-#include "skimap/rw_lock.h"
 #include "skimap/grid.h"
+#include "skimap/rw_lock.h"
 #include "skimap/skip_list.h"
 #include "skimap/thread_pool.h"
 #include "skimap/voxel.h"
