@@ -153,7 +153,7 @@ void VoxelBatch<V>::AddPoints(const Grid& grid, size_t count, Fn&& get) {
   }
   if (!SameKey(last, kNoKey)) out[n++] = Item{last, std::move(acc)};
   if (static_cast<size_t>(n) > n_ && n > 1) finalized_ = false;
-  n_ = static_cast<size_t>(n);
+  n_ = n < 0 ? 0 : static_cast<size_t>(n);  // n < 0: nothing was added to an empty batch
 }
 
 template <Voxel V>
