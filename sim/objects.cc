@@ -1,0 +1,172 @@
+// Object catalogue. See objects.h for the contract.
+#include "sim/objects.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+
+namespace skimap::sim {
+namespace {
+
+using Eigen::Affine3f;
+using Eigen::Vector3f;
+
+Affine3f At(float x, float y, float z) { return Affine3f(Eigen::Translation3f(x, y, z)); }
+
+Texture Darker(const Texture& t, double f) {
+  auto m = std::make_shared<cv::Mat>();
+  t->convertTo(*m, -1, f);
+  return m;
+}
+
+// A cylinder standing on z = 0.
+Mesh Cyl(float r, float h, Texture side, Texture cap, int seg = 24) {
+  return MakeFrustum(r, r, 0, h, seg, std::move(side), std::move(cap));
+}
+
+// A box standing on z = 0.
+Mesh BoxOnFloor(Vector3f size, Texture t) {
+  Mesh m;
+  m.Append(MakeBox(size, std::move(t)), At(0, 0, size.z() / 2));
+  return m;
+}
+
+Mesh Design(int index, const Texture& t, const Texture& alt) {
+  const Texture grey = FlatTexture(200, 200, 200);
+  const Texture dark = FlatTexture(40, 40, 40);
+  Mesh m;
+  switch (index) {
+    case 0:  // "Boxgreen": a ~5 cm cube
+      return BoxOnFloor({0.05f, 0.05f, 0.05f}, t);
+    case 1:  // cereal box
+      return BoxOnFloor({0.19f, 0.07f, 0.28f}, t);
+    case 2:  // tea box
+      return BoxOnFloor({0.15f, 0.08f, 0.07f}, t);
+    case 3:  // mug: cylinder + handle from three boxes
+      m = Cyl(0.042f, 0.10f, t, dark);
+      m.Append(MakeBox({0.03f, 0.012f, 0.012f}, alt), At(0.055f, 0, 0.085f));
+      m.Append(MakeBox({0.012f, 0.012f, 0.06f}, alt), At(0.064f, 0, 0.05f));
+      m.Append(MakeBox({0.03f, 0.012f, 0.012f}, alt), At(0.055f, 0, 0.015f));
+      return m;
+    case 4:  // can
+      return Cyl(0.033f, 0.12f, t, grey);
+    case 5:  // bottle: body, shoulder, neck, cap
+      m = Cyl(0.035f, 0.17f, t, grey);
+      m.Append(MakeFrustum(0.035f, 0.014f, 0.17f, 0.21f, 24, alt, nullptr));
+      m.Append(Cyl(0.014f, 0.04f, alt, nullptr), At(0, 0, 0.21f));
+      m.Append(Cyl(0.016f, 0.02f, dark, dark), At(0, 0, 0.25f));
+      return m;
+    case 6:  // jar with lid
+      m = Cyl(0.05f, 0.11f, t, grey);
+      m.Append(Cyl(0.053f, 0.025f, alt, alt), At(0, 0, 0.11f));
+      return m;
+    case 7:  // book lying flat
+      return BoxOnFloor({0.15f, 0.22f, 0.035f}, t);
+    case 8:  // shampoo: flat box bottle + cap
+      m = BoxOnFloor({0.08f, 0.045f, 0.16f}, t);
+      m.Append(Cyl(0.015f, 0.03f, alt, alt), At(0, 0, 0.16f));
+      return m;
+    case 9:  // desk lamp-like composite: base, pole, head
+      m = BoxOnFloor({0.12f, 0.12f, 0.025f}, alt);
+      m.Append(Cyl(0.012f, 0.18f, grey, grey, 12), At(0, 0, 0.025f));
+      m.Append(MakeBox({0.14f, 0.07f, 0.06f}, t), At(0.03f, 0, 0.235f));
+      return m;
+    case 10:  // paper cup (tapered)
+      return MakeFrustum(0.03f, 0.042f, 0, 0.095f, 24, t, dark);
+    default:  // tall chips tube
+      m = Cyl(0.038f, 0.25f, t, alt);
+      return m;
+  }
+}
+
+const char* kNames[kNumObjectDesigns] = {"boxgreen", "cereal", "teabox",  "mug",  "can", "bottle",
+                                         "jar",      "book",   "shampoo", "lamp", "cup", "chips"};
+
+}  // namespace
+
+void CentreMesh(Mesh& mesh) {
+  const Vector3f c = mesh.Bounds().center();
+  for (Vector3f& p : mesh.positions) p -= c;
+}
+
+absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) {
+    return absl::NotFoundError(absl::StrCat(dir, ": texture folder not found"));
+  }
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (e.is_regular_file() && (ext == ".jpg" || ext == ".jpeg" || ext == ".png")) {
+      files.push_back(e.path().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  std::vector<Texture> out;
+  for (const std::string& f : files) {
+    cv::Mat img = cv::imread(f, cv::IMREAD_COLOR);
+    if (img.empty() || img.cols < 64 || img.rows < 64) continue;
+    // Skip nearly grey images (calibration boards, masks): they make poor object textures.
+    cv::Mat hsv;
+    cv::cvtColor(img, hsv, cv::COLOR_BGR2HSV);
+    if (cv::mean(hsv)[1] < 40) continue;
+    const double s = std::min(1.0, static_cast<double>(max_side) / std::max(img.cols, img.rows));
+    cv::Mat small;
+    cv::resize(img, small, cv::Size(), s, s, cv::INTER_AREA);
+    out.push_back(std::make_shared<const cv::Mat>(std::move(small)));
+  }
+  if (out.empty()) {
+    return absl::NotFoundError(absl::StrCat(dir, ": no colour .jpg/.png image of >= 64x64 px"));
+  }
+  return out;
+}
+
+std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count) {
+  std::vector<ObjectModel> out;
+  const size_t n = textures.size();
+  for (int i = 0; i < count && i < kNumObjectDesigns; ++i) {
+    ObjectModel o;
+    o.obj_id = i + 1;
+    o.name = kNames[i];
+    o.mesh = Design(i, textures[i % n], Darker(textures[(i + 5) % n], 0.8));
+    CentreMesh(o.mesh);
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int count) {
+  std::vector<Mesh> out;
+  const size_t n = textures.size();
+  for (int i = 0; i < count; ++i) {
+    const Texture& t = textures[n - 1 - (i % n)];
+    Mesh m;
+    switch (i % 4) {
+      case 0:  // vase
+        m = MakeFrustum(0.06f, 0.035f, 0, 0.22f, 20, t, FlatTexture(30, 30, 30));
+        break;
+      case 1:  // shoe-box
+        m = BoxOnFloor({0.30f, 0.18f, 0.12f}, t);
+        break;
+      case 2:  // flower pot with plant block
+        m = MakeFrustum(0.05f, 0.07f, 0, 0.12f, 20, FlatTexture(60, 90, 160), nullptr);
+        m.Append(MakeBox({0.10f, 0.10f, 0.12f}, t), Affine3f(Eigen::Translation3f(0, 0, 0.18f)));
+        break;
+      default:  // stack of two boxes
+        m = BoxOnFloor({0.12f, 0.12f, 0.08f}, t);
+        m.Append(MakeBox({0.08f, 0.08f, 0.08f}, FlatTexture(50, 120, 200)),
+                 Affine3f(Eigen::Translation3f(0, 0, 0.12f)));
+        break;
+    }
+    CentreMesh(m);
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+}  // namespace skimap::sim

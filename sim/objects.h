@@ -1,0 +1,49 @@
+// The object catalogue: database objects (SK17-like: boxes, cans, cups, bottles, composite
+// shapes, 5-30 cm) and distractor objects that are not in the database, all textured with
+// real photographs.
+//
+// Thread safety: pure functions returning values.
+#ifndef SKIMAP_SIM_OBJECTS_H_
+#define SKIMAP_SIM_OBJECTS_H_
+
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "sim/mesh.h"
+
+namespace skimap::sim {
+
+// Debian's opencv-doc photographs, the default texture source.
+inline constexpr char kDefaultTextureDir[] = "/usr/share/doc/opencv-doc/examples/data";
+
+// Loads every .jpg/.jpeg/.png in `dir` (sorted by name; not recursive) that is a colour-
+// able image of at least 64x64 px, scaled so the longer side is at most max_side px.
+// kNotFound if the folder is missing or holds no usable image.
+absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side = 256);
+
+// A database object: BOP obj_id, a short name, and its mesh with the origin at the centre
+// of its bounding box (BOP convention), z up when standing.
+struct ObjectModel {
+  int obj_id = 0;
+  std::string name;
+  Mesh mesh;
+};
+
+// The number of distinct database object designs (ids 1..kNumObjectDesigns).
+inline constexpr int kNumObjectDesigns = 12;
+
+// Makes database objects 1..count (count <= kNumObjectDesigns), textures assigned in order
+// (cycling if there are fewer textures than objects). REQUIRES: textures non-empty.
+std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count);
+
+// Makes `count` distractor meshes (origin at bbox centre), textured from the end of the
+// texture list so they look unlike the database objects. REQUIRES: textures non-empty.
+std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int count);
+
+// Moves the mesh so the centre of its bounding box is at the origin.
+void CentreMesh(Mesh& mesh);
+
+}  // namespace skimap::sim
+
+#endif  // SKIMAP_SIM_OBJECTS_H_

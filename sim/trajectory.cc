@@ -1,0 +1,144 @@
+// Camera trajectories. See trajectory.h for the contract.
+#include "sim/trajectory.h"
+
+#include <cmath>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+
+namespace skimap::sim {
+namespace {
+
+using Eigen::Vector2f;
+using Eigen::Vector3f;
+constexpr float kPi = 3.14159265f;
+
+// Smooth pseudo-random tremor: a sum of sines with seeded phases.
+struct Tremor {
+  explicit Tremor(uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    for (float& p : phase) p = static_cast<float>(rng() % 6283) / 1000.f;
+  }
+  // Offset in [-1, 1] for channel c at time t.
+  float At(int c, float t) const {
+    return 0.6f * std::sin(2.1f * t + phase[2 * c]) + 0.4f * std::sin(5.3f * t + phase[2 * c + 1]);
+  }
+  float phase[12];
+};
+
+Eigen::Isometry3f Perturb(Eigen::Isometry3f T, const Tremor& tr, float t, float pos, float ang) {
+  T.translation() += pos * Vector3f(tr.At(0, t), tr.At(1, t), tr.At(2, t));
+  const Eigen::Matrix3f R = (Eigen::AngleAxisf(ang * tr.At(3, t), Vector3f::UnitX()) *
+                             Eigen::AngleAxisf(ang * tr.At(4, t), Vector3f::UnitY()) *
+                             Eigen::AngleAxisf(ang * tr.At(5, t), Vector3f::UnitZ()))
+                                .toRotationMatrix();
+  T.linear() = T.linear() * R;
+  return T;
+}
+
+}  // namespace
+
+absl::StatusOr<TrajectoryKind> ParseTrajectoryKind(const std::string& name) {
+  if (name == "orbit") return TrajectoryKind::kOrbit;
+  if (name == "sweep") return TrajectoryKind::kSweep;
+  if (name == "robot") return TrajectoryKind::kRobot;
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown trajectory \"", name, "\" (orbit, sweep, robot)"));
+}
+
+const char* TrajectoryKindName(TrajectoryKind kind) {
+  switch (kind) {
+    case TrajectoryKind::kOrbit:
+      return "orbit";
+    case TrajectoryKind::kSweep:
+      return "sweep";
+    default:
+      return "robot";
+  }
+}
+
+Eigen::Isometry3f LookAt(const Vector3f& eye, const Vector3f& target) {
+  const Vector3f z = (target - eye).normalized();
+  const Vector3f x = z.cross(Vector3f::UnitZ()).normalized();
+  const Vector3f y = z.cross(x);
+  Eigen::Isometry3f T = Eigen::Isometry3f::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = y;
+  T.linear().col(2) = z;
+  T.translation() = eye;
+  return T;
+}
+
+std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
+                                              const TrajectoryOptions& o) {
+  std::vector<Eigen::Isometry3f> out;
+  const Tremor tremor(o.seed);
+  const Support* table = nullptr;
+  const Support* shelf = nullptr;
+  for (const Support& s : scene.supports) {
+    if (!table && s.name.rfind("table", 0) == 0) table = &s;
+    if (!shelf && s.name.rfind("shelf", 0) == 0) shelf = &s;
+  }
+  TrajectoryKind kind = o.kind;
+  if (kind == TrajectoryKind::kSweep && !shelf) kind = TrajectoryKind::kOrbit;
+  const float w = scene.spec.width / 2 - 1.0f, d = scene.spec.depth / 2 - 1.0f;
+  for (int i = 0; i < o.frames; ++i) {
+    const float t = static_cast<float>(i / o.fps);
+    const float s = static_cast<float>(o.speed) * t;  // path length so far
+    Eigen::Isometry3f T;
+    if (kind == TrajectoryKind::kOrbit && table) {
+      const Vector2f c2 = (table->min + table->max) / 2;
+      const Vector3f c(c2.x(), c2.y(), table->z + 0.05f);
+      const float r = 1.3f, a = s / r - kPi / 2;
+      T = LookAt(c + Vector3f(r * std::cos(a), r * std::sin(a), 0.7f), c);
+    } else if (kind == TrajectoryKind::kSweep) {
+      const Vector2f c2 = (shelf->min + shelf->max) / 2;
+      const bool north = c2.y() > 0, along_x = shelf->max.x() - shelf->min.x() > 0.5f;
+      const Vector3f n = along_x ? Vector3f(0, north ? -1.f : 1.f, 0) : Vector3f(1, 0, 0);
+      const Vector3f side = along_x ? Vector3f(1, 0, 0) : Vector3f(0, 1, 0);
+      const float lateral = 0.8f * std::sin(s / 0.8f);  // +-0.8 m back and forth
+      const float look_z = 0.9f + 0.4f * std::sin(0.37f * s);
+      const Vector3f base(c2.x(), c2.y(), 0);
+      T = LookAt(base + 1.1f * n + lateral * side + Vector3f(0, 0, 1.3f),
+                 base + 0.6f * lateral * side + Vector3f(0, 0, look_z));
+    } else {  // robot loop (rectangle, counter-clockwise) or orbit without tables
+      const float perim = 4 * (w + d);
+      float u = std::fmod(s, perim);
+      Vector3f p, dir;
+      if (u < 2 * w) {
+        p = {-w + u, -d, 0}, dir = {1, 0, 0};
+      } else if ((u -= 2 * w) < 2 * d) {
+        p = {w, -d + u, 0}, dir = {0, 1, 0};
+      } else if ((u -= 2 * d) < 2 * w) {
+        p = {w - u, d, 0}, dir = {-1, 0, 0};
+      } else {
+        u -= 2 * w;
+        p = {-w, d - u, 0}, dir = {0, -1, 0};
+      }
+      const float yaw = 0.5f + 0.6f * std::sin(2 * kPi * t / 7.f);  // look inward and around
+      const Vector3f look = Eigen::AngleAxisf(yaw, Vector3f::UnitZ()) * dir;
+      const float bob = o.shake ? 0.01f * std::sin(2 * kPi * t * 1.8f) : 0.f;
+      p.z() = 1.35f + bob;
+      T = LookAt(p, p + look + Vector3f(0, 0, -std::tan(20.f * kPi / 180.f)));
+    }
+    if (o.shake && kind != TrajectoryKind::kRobot) T = Perturb(T, tremor, t, 0.01f, 0.012f);
+    out.push_back(T);
+  }
+  return out;
+}
+
+std::vector<Eigen::Isometry3f> MakeTrainingOrbit(const Vector3f& target, float radius,
+                                                 float elevation_deg, float azimuth0_deg,
+                                                 int frames) {
+  std::vector<Eigen::Isometry3f> out;
+  const float e = elevation_deg * kPi / 180.f;
+  for (int i = 0; i < frames; ++i) {
+    const float a = (azimuth0_deg * kPi / 180.f) + 2 * kPi * i / frames;
+    const Vector3f eye = target + radius * Vector3f(std::cos(e) * std::cos(a),
+                                                    std::cos(e) * std::sin(a), std::sin(e));
+    out.push_back(LookAt(eye, target));
+  }
+  return out;
+}
+
+}  // namespace skimap::sim

@@ -1,0 +1,55 @@
+// Camera trajectories at a fixed frame rate: hand-held orbits around a table, hand-held
+// sweeps along a shelf, a robot head walking a loop around the room, and the object
+// training orbits. Poses are world <- camera (OpenCV camera axes).
+//
+// Thread safety: pure functions.
+#ifndef SKIMAP_SIM_TRAJECTORY_H_
+#define SKIMAP_SIM_TRAJECTORY_H_
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "sim/scene.h"
+
+namespace skimap::sim {
+
+// Kinds of scene trajectory.
+enum class TrajectoryKind { kOrbit, kSweep, kRobot };
+
+// Parses "orbit", "sweep", "robot". kInvalidArgument otherwise.
+absl::StatusOr<TrajectoryKind> ParseTrajectoryKind(const std::string& name);
+const char* TrajectoryKindName(TrajectoryKind kind);
+
+// Parameters of a scene trajectory.
+struct TrajectoryOptions {
+  TrajectoryKind kind = TrajectoryKind::kOrbit;
+  int frames = 300;
+  double fps = 30;
+  double speed = 0.35;  // m/s along the path (hand-held ~0.3, robot ~0.5)
+  bool shake = true;    // hand-held tremor (1 cm, 0.7 deg); robot: head bob
+  uint64_t seed = 1;    // phases of the tremor
+};
+
+// Camera pose looking from `eye` at `target` with world z up. REQUIRES: eye != target and
+// the view direction not vertical.
+Eigen::Isometry3f LookAt(const Eigen::Vector3f& eye, const Eigen::Vector3f& target);
+
+// Poses for every frame. Orbit: around the first table (radius 1.3 m, eye 0.7 m above the
+// top). Sweep: back and forth 1.1 m in front of the first shelf (orbit if there is none).
+// Robot: a loop 1 m from the walls at 1.35 m height, looking around (+-35 deg yaw, 20 deg
+// down).
+std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
+                                              const TrajectoryOptions& options);
+
+// Training orbit around the world origin: `frames` views evenly spaced in azimuth at
+// elevation `elevation_deg`, distance `radius`, looking at `target`.
+std::vector<Eigen::Isometry3f> MakeTrainingOrbit(const Eigen::Vector3f& target, float radius,
+                                                 float elevation_deg, float azimuth0_deg,
+                                                 int frames);
+
+}  // namespace skimap::sim
+
+#endif  // SKIMAP_SIM_TRAJECTORY_H_
