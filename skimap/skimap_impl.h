@@ -7,7 +7,7 @@
 namespace skimap {
 
 namespace internal {
-// Seed of the z list at (x, y): distinct per column, reproducible for a given map seed.
+// Seed of the RNG of column x: distinct per column, reproducible for a given map seed.
 inline uint32_t MixSeed(uint32_t seed, int32_t x, int32_t y) {
   uint64_t h = (uint64_t{static_cast<uint32_t>(x)} << 32) ^ static_cast<uint32_t>(y) ^ seed;
   h ^= h >> 33;
@@ -23,7 +23,7 @@ inline constexpr size_t kParallelMinItems = 4096;
 template <Voxel V>
 struct SkiMap<V>::Column {
   using YList = SkipListCore<int32_t, ZList>;
-  Column(const SkipListOptions& options, uint32_t seed) : arena(options), ys(seed) {}
+  explicit Column(const SkipListOptions& options) : arena(options) {}
   ~Column() ABSL_NO_THREAD_SAFETY_ANALYSIS {
     for (auto* n = ys.First(); n != nullptr; n = n->next[0]) n->value.Clear(arena);
     ys.Clear(arena);
@@ -138,8 +138,9 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
     WriterLock lock(&x_mu_);
     for (Run& r : runs) {
       if (r.column != nullptr) continue;
-      auto column = std::make_unique<Column>(
-          options_.lists, internal::MixSeed(options_.lists.seed, r.x, INT32_MIN));
+      SkipListOptions lists = options_.lists;
+      lists.seed = internal::MixSeed(lists.seed, r.x, INT32_MIN);
+      auto column = std::make_unique<Column>(lists);
       r.column = column.get();
       xs_.Insert(r.x, std::move(column));
     }
@@ -199,9 +200,8 @@ WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBa
     while (run_end != end && run_end->key.y == y) ++run_end;
     typename YList::Node* yn;
     if (integrate) {
-      bool inserted = false;
+      bool inserted = false;  // a new y entry starts with an empty z list
       yn = c.ys.FindOrInsert(c.arena, yf, y, &inserted);
-      if (inserted) yn->value = ZList(internal::MixSeed(0, x, y));
     } else {
       yn = c.ys.Seek(yf, y);
       if (yn == nullptr || yn->key != y) {

@@ -28,7 +28,7 @@ class SkipList {
   using Core = SkipListCore<K, V>;
   using Node = typename Core::Node;
 
-  explicit SkipList(const SkipListOptions& options = {}) : arena_(options), core_(options.seed) {}
+  explicit SkipList(const SkipListOptions& options = {}) : arena_(options) {}
   ~SkipList() { core_.Clear(arena_); }
   SkipList(const SkipList&) = delete;
   SkipList& operator=(const SkipList&) = delete;

@@ -1,14 +1,16 @@
 // SkipListCore<K, V>: the compact skip list SkiMap nests three deep (x -> y -> z).
 //
-// A core is 16 bytes (head tower pointer, height, size, its own RNG state) because a map
-// holds one per (x, y) column. It does not own an allocator: every mutating call takes the
-// SkipListArena whose pool holds the nodes, and the owner must call Clear(arena) before the
-// core is destroyed (SkipList<K, V> in skip_list.h is the self-contained wrapper that does).
+// A core is 16 bytes (head, size, height) because a map holds one per (x, y) column. It
+// does not own an allocator: every mutating call takes the SkipListArena whose pool holds
+// the nodes and whose seeded RNG draws node heights, and the owner must call Clear(arena)
+// before the core is destroyed (SkipList<K, V> in skip_list.h is the self-contained wrapper
+// that does).
 //
 // Nodes are variable-height towers from the arena's NodePool; a node's height is drawn from
-// a geometric distribution with the arena's promotion probability, using the list's own
-// xorshift RNG (seeded by the owner; never the global rand()). The head tower grows with
-// the list, so an empty list uses no pool memory and a one-element list costs one node.
+// a geometric distribution with the arena's promotion probability, using the arena's own
+// xorshift RNG (seeded by the owner; never the global rand()). The head keeps its level-0
+// pointer inline and grows a tower only when the list does, so an empty list uses no pool
+// memory and a short list costs just its nodes.
 //
 // Fingers make ascending batch operations cheap: a Finger remembers the predecessors of the
 // last key it visited, so the next, larger key is found by walking forward from there
@@ -19,7 +21,6 @@
 #ifndef SKIMAP_SKIP_LIST_CORE_H_
 #define SKIMAP_SKIP_LIST_CORE_H_
 
-#include <array>
 #include <cassert>
 #include <cstdint>
 #include <new>
@@ -34,18 +35,19 @@ inline constexpr int kMaxSkipListHeight = 24;
 struct SkipListOptions {
   // Tallest tower a node may get, 1..kMaxSkipListHeight. log_{1/p}(expected size) suffices.
   int max_height = 16;
-  // Probability that a node reaches the next level, in (0, 1). Smaller values save
+  // Probability that a node reaches the next level, in [0, 1]. Smaller values save
   // memory (1/(1-p) forward pointers per node on average) at the cost of longer searches.
   double promotion_probability = 0.25;
-  // Seed for the lists' own RNGs (a list derives its seed from this and its position).
+  // Seed of the RNG that draws node heights.
   uint32_t seed = 0x2545F491u;
 };
 
-// The memory and the height policy shared by a family of lists. Not thread safe.
+// The memory, the height policy and the RNG shared by a family of lists. Not thread safe.
 class SkipListArena {
  public:
   explicit SkipListArena(const SkipListOptions& options = {})
-      : max_height_(options.max_height < 1                    ? 1
+      : rng_(options.seed == 0 ? 0x9E3779B9u : options.seed),
+        max_height_(options.max_height < 1                    ? 1
                     : options.max_height > kMaxSkipListHeight ? kMaxSkipListHeight
                                                               : options.max_height),
         threshold_(ProbabilityToThreshold(options.promotion_probability)) {}
@@ -53,7 +55,14 @@ class SkipListArena {
   NodePool& pool() { return pool_; }
   const NodePool& pool() const { return pool_; }
   int max_height() const { return max_height_; }
-  uint32_t promotion_threshold() const { return threshold_; }
+
+  // Height for a new node: geometric with the promotion probability, drawn from this
+  // arena's xorshift RNG (deterministic for a given seed and operation sequence).
+  int RandomHeight() {
+    int h = 1;
+    while (h < max_height_ && NextRandom() < threshold_) ++h;
+    return h;
+  }
 
  private:
   static uint32_t ProbabilityToThreshold(double p) {
@@ -61,7 +70,15 @@ class SkipListArena {
     if (p >= 1.0) return UINT32_MAX;
     return static_cast<uint32_t>(p * 4294967296.0);
   }
+  uint32_t NextRandom() {
+    rng_ ^= rng_ << 13;
+    rng_ ^= rng_ >> 17;
+    rng_ ^= rng_ << 5;
+    return rng_;
+  }
+
   NodePool pool_;
+  uint32_t rng_;
   int max_height_;
   uint32_t threshold_;
 };
@@ -82,27 +99,26 @@ class SkipListCore {
     Node* preds[kMaxSkipListHeight];
   };
 
-  explicit SkipListCore(uint32_t seed = 1) : rng_(seed == 0 ? 0x9E3779B9u : seed) {}
+  SkipListCore() = default;
   SkipListCore(SkipListCore&& other) noexcept { *this = std::move(other); }
   SkipListCore& operator=(SkipListCore&& other) noexcept {
-    std::swap(head_, other.head_);
+    std::swap(head_, other.head_);  // an inline head moves by value, a tower by pointer
+    std::swap(size_, other.size_);
     std::swap(height_, other.height_);
     std::swap(head_capacity_, other.head_capacity_);
-    std::swap(size_, other.size_);
-    std::swap(rng_, other.rng_);
     return *this;
   }
   SkipListCore(const SkipListCore&) = delete;
   SkipListCore& operator=(const SkipListCore&) = delete;
   // REQUIRES: Clear(arena) was called (or the list is empty).
-  ~SkipListCore() { assert(size_ == 0 && head_ == nullptr); }
+  ~SkipListCore() { assert(size_ == 0 && head_capacity_ == 0); }
 
   uint32_t size() const { return size_; }
   bool empty() const { return size_ == 0; }
   int height() const { return height_; }
 
   // First node, or nullptr. Iterate with node->next[0].
-  Node* First() const { return head_ == nullptr ? nullptr : head_[0]; }
+  Node* First() const { return head_capacity_ == 0 ? nullptr : Links(nullptr)[0]; }
 
   // Last node, or nullptr. O(log n).
   Node* Last() const {
@@ -115,7 +131,7 @@ class SkipListCore {
 
   // First node whose key is >= key (find-nearest), or nullptr.
   Node* LowerBound(const K& key) const {
-    if (head_ == nullptr) return nullptr;
+    if (head_capacity_ == 0) return nullptr;
     Node* cur = nullptr;
     for (int l = height_ - 1; l >= 0; --l) {
       for (Node* n = Links(cur)[l]; n != nullptr && n->key < key; n = Links(cur)[l]) cur = n;
@@ -133,7 +149,7 @@ class SkipListCore {
   // REQUIRES: `finger` is fresh, or its last key was <= `key` and the list was changed
   // since then only through this finger.
   Node* Seek(Finger& finger, const K& key) const {
-    if (head_ == nullptr) return nullptr;
+    if (head_capacity_ == 0) return nullptr;
     Node* cur = nullptr;
     for (int l = height_ - 1; l >= 0; --l) {
       Node* p = l < finger.valid ? finger.preds[l] : nullptr;
@@ -154,7 +170,7 @@ class SkipListCore {
       return n;
     }
     *inserted = true;
-    const int h = RandomHeight(arena);
+    const int h = arena.RandomHeight();
     if (h > head_capacity_) GrowHead(arena, h);
     for (int l = height_; l < h; ++l) finger.preds[l] = nullptr;
     if (h > height_) height_ = static_cast<uint8_t>(h);
@@ -180,7 +196,7 @@ class SkipListCore {
     for (int l = 0; l < n->height; ++l) Links(finger.preds[l])[l] = n->next[l];
     DestroyNode(arena, n);
     --size_;
-    while (height_ > 0 && head_[height_ - 1] == nullptr) --height_;
+    while (height_ > 0 && Links(nullptr)[height_ - 1] == nullptr) --height_;
     if (size_ == 0) FreeHead(arena);
     return true;
   }
@@ -202,30 +218,33 @@ class SkipListCore {
   static constexpr size_t NodeBytes(int h) { return sizeof(Node) + (h - 1) * sizeof(Node*); }
 
  private:
-  Node** Links(Node* n) const { return n == nullptr ? head_ : n->next; }
+  // The head's forward pointers: inline while the list is one level high (most z lists),
+  // an allocated tower beyond that.
+  union Head {
+    Node* first;
+    Node** tower;
+  };
 
-  uint32_t NextRandom() {
-    rng_ ^= rng_ << 13;
-    rng_ ^= rng_ >> 17;
-    rng_ ^= rng_ << 5;
-    return rng_;
-  }
-  int RandomHeight(const SkipListArena& arena) {
-    int h = 1;
-    while (h < arena.max_height() && NextRandom() < arena.promotion_threshold()) ++h;
-    return h;
+  Node** Links(Node* n) const {
+    if (n != nullptr) return n->next;
+    return head_capacity_ <= 1 ? const_cast<Node**>(&head_.first) : head_.tower;
   }
 
   void GrowHead(SkipListArena& arena, int h) {
-    auto** head = static_cast<Node**>(arena.pool().Allocate(h * sizeof(Node*)));
-    for (int l = 0; l < h; ++l) head[l] = l < height_ ? head_[l] : nullptr;
-    if (head_ != nullptr) arena.pool().Free(head_, head_capacity_ * sizeof(Node*));
-    head_ = head;
+    if (h <= 1) {
+      head_.first = nullptr;
+      head_capacity_ = 1;
+      return;
+    }
+    auto** tower = static_cast<Node**>(arena.pool().Allocate(h * sizeof(Node*)));
+    for (int l = 0; l < h; ++l) tower[l] = l < height_ ? Links(nullptr)[l] : nullptr;
+    if (head_capacity_ > 1) arena.pool().Free(head_.tower, head_capacity_ * sizeof(Node*));
+    head_.tower = tower;
     head_capacity_ = static_cast<uint8_t>(h);
   }
   void FreeHead(SkipListArena& arena) {
-    if (head_ != nullptr) arena.pool().Free(head_, head_capacity_ * sizeof(Node*));
-    head_ = nullptr;
+    if (head_capacity_ > 1) arena.pool().Free(head_.tower, head_capacity_ * sizeof(Node*));
+    head_.first = nullptr;
     head_capacity_ = 0;
   }
   static void DestroyNode(SkipListArena& arena, Node* n) {
@@ -235,11 +254,10 @@ class SkipListCore {
     arena.pool().Free(n, NodeBytes(h));
   }
 
-  Node** head_ = nullptr;
-  uint8_t height_ = 0;
-  uint8_t head_capacity_ = 0;
+  Head head_{nullptr};
   uint32_t size_ = 0;
-  uint32_t rng_;
+  uint8_t height_ = 0;
+  uint8_t head_capacity_ = 0;  // 0: empty, 1: inline head, > 1: tower of that height
 };
 
 }  // namespace skimap

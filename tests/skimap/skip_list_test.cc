@@ -128,7 +128,7 @@ TEST(SkipListTest, SameSeedGivesSameStructure) {
 
 TEST(SkipListCoreTest, FingerWalksAscendingKeys) {
   SkipListArena arena({.max_height = 8, .promotion_probability = 0.5});
-  SkipListCore<int, int> core(3);
+  SkipListCore<int, int> core;
   SkipListCore<int, int>::Finger finger;
   bool inserted = false;
   for (int k = 0; k < 1000; k += 2) core.FindOrInsert(arena, finger, k, &inserted)->value = k;
