@@ -1,0 +1,186 @@
+// End-to-end: skimap-sim's mini preset (few frames) read back with the dataset reader.
+#include "sim/generator.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "dataset/reader.h"
+#include "sim/objects.h"
+
+namespace skimap::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+class GeneratorTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = new fs::path(fs::temp_directory_path() / ("skimap_sim_" + std::to_string(::getpid())));
+    fs::remove_all(*root_);
+    for (int threads : {2, 1}) {
+      GeneratorOptions o;
+      o.out_dir = (*root_ / ("t" + std::to_string(threads))).string();
+      o.seed = 7;
+      o.scene_frames = 24;
+      o.train_frames = 4;
+      o.threads = threads;
+      absl::StatusOr<GeneratorStats> st = Generate(o);
+      ASSERT_TRUE(st.ok()) << st.status();
+      EXPECT_EQ(st->frames, 3 * 2 * 4 + 24);
+    }
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*root_);
+    delete root_;
+  }
+  static std::string Dir() { return (*root_ / "t2").string(); }
+  static fs::path* root_;
+};
+fs::path* GeneratorTest::root_ = nullptr;
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST_F(GeneratorTest, SameSeedGivesByteIdenticalOutputWhateverTheThreadCount) {
+  std::vector<std::string> a, b;
+  for (const auto& e : fs::recursive_directory_iterator(*root_ / "t2")) {
+    if (e.is_regular_file()) a.push_back(fs::relative(e.path(), *root_ / "t2").string());
+  }
+  for (const auto& e : fs::recursive_directory_iterator(*root_ / "t1")) {
+    if (e.is_regular_file()) b.push_back(fs::relative(e.path(), *root_ / "t1").string());
+  }
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  ASSERT_EQ(a, b);
+  ASSERT_GT(a.size(), 100u);
+  for (const std::string& f : a) {
+    ASSERT_EQ(Slurp(*root_ / "t2" / f), Slurp(*root_ / "t1" / f)) << f;
+  }
+}
+
+TEST_F(GeneratorTest, BopFilesAreCompleteAndParse) {
+  auto ds = dataset::LoadBopDataset(Dir());
+  ASSERT_TRUE(ds.ok()) << ds.status();
+  ASSERT_TRUE(ds->camera.has_value());
+  EXPECT_EQ(ds->camera->K.width, 640);
+  ASSERT_EQ(ds->models.size(), 3u);
+  for (const auto& [id, m] : ds->models) {
+    EXPECT_FALSE(m.ply_path.empty()) << id;
+    EXPECT_GT(m.diameter, 0.05);  // 5-30 cm objects
+    EXPECT_LT(m.diameter, 0.45);
+  }
+  ASSERT_EQ(ds->scenes["train"].size(), 3u);
+  ASSERT_EQ(ds->scenes["test"].size(), 1u);
+  for (const auto& [split, dirs] : ds->scenes) {
+    for (const std::string& dir : dirs) {
+      auto seq = dataset::LoadBopScene(dir);
+      ASSERT_TRUE(seq.ok()) << seq.status();
+      EXPECT_EQ(seq->frames.size(), split == "train" ? 8u : 24u);
+      for (const dataset::Frame& f : seq->frames) {
+        ASSERT_TRUE(f.has_pose);
+        ASSERT_FALSE(f.objects.empty());
+        auto img = dataset::LoadFrameImages(f, /*load_masks=*/true);
+        ASSERT_TRUE(img.ok()) << img.status();
+        for (size_t g = 0; g < f.objects.size(); ++g) {
+          const dataset::ObjectAnnotation& a = f.objects[g];
+          EXPECT_EQ(cv::countNonZero(img->masks[g]), a.px_count_visib);
+          EXPECT_LE(a.px_count_visib, a.px_count_all);
+          EXPECT_LE(a.px_count_valid, a.px_count_visib);
+        }
+      }
+    }
+  }
+  std::ifstream geo(ds->scenes["test"][0] + "/scene_geometry.json");
+  nlohmann::json j = nlohmann::json::parse(geo, nullptr, false);
+  ASSERT_FALSE(j.is_discarded());
+  EXPECT_GE(j["boxes"].size(), 6u);
+  EXPECT_EQ(j["objects"].size(), 3u);
+}
+
+TEST_F(GeneratorTest, ObjectPoseInWorldIsIdenticalAcrossFrames) {
+  for (const char* scene : {"/test/000001", "/train/000002"}) {
+    auto seq = dataset::LoadSequence(Dir() + scene);
+    ASSERT_TRUE(seq.ok()) << seq.status();
+    const dataset::Frame& f0 = seq->frames[0];
+    for (const dataset::Frame& f : seq->frames) {
+      ASSERT_EQ(f.objects.size(), f0.objects.size());
+      for (size_t g = 0; g < f.objects.size(); ++g) {
+        const Eigen::Isometry3d a = f0.T_wc * f0.objects[g].T_m2c;
+        const Eigen::Isometry3d b = f.T_wc * f.objects[g].T_m2c;
+        EXPECT_LT((a.translation() - b.translation()).norm(), 1e-5) << scene << " " << f.id;
+        EXPECT_LT((a.linear() - b.linear()).norm(), 1e-5) << scene << " " << f.id;
+      }
+    }
+  }
+}
+
+TEST_F(GeneratorTest, ProjectedModelPointsFallInsideVisibleMasks) {
+  auto textures = LoadTextures(kDefaultTextureDir);
+  ASSERT_TRUE(textures.ok()) << textures.status();
+  const std::vector<ObjectModel> models = MakeDatabaseObjects(*textures, 3);
+  int checked = 0;
+  for (const char* scene : {"/test/000001", "/train/000001", "/train/000003"}) {
+    auto seq = dataset::LoadBopScene(Dir() + scene);
+    ASSERT_TRUE(seq.ok()) << seq.status();
+    for (const dataset::Frame& f : seq->frames) {
+      auto img = dataset::LoadFrameImages(f, true);
+      ASSERT_TRUE(img.ok());
+      for (size_t g = 0; g < f.objects.size(); ++g) {
+        const dataset::ObjectAnnotation& a = f.objects[g];
+        if (a.visib_fract < 0.98 || a.px_count_all < 150) continue;  // unoccluded only
+        cv::Mat mask;
+        cv::dilate(img->masks[g], mask, cv::Mat());  // 1 px tolerance at the silhouette
+        int inside = 0, total = 0;
+        for (const Eigen::Vector3f& p : models[a.obj_id - 1].mesh.positions) {
+          const Eigen::Vector3d c = a.T_m2c * p.cast<double>();
+          const int u = static_cast<int>(std::lround(f.K.fx * c.x() / c.z() + f.K.cx));
+          const int v = static_cast<int>(std::lround(f.K.fy * c.y() / c.z() + f.K.cy));
+          if (u < 0 || v < 0 || u >= f.K.width || v >= f.K.height) continue;
+          ++total;
+          inside += mask.at<uint8_t>(v, u) != 0;
+        }
+        ASSERT_GT(total, 0);
+        EXPECT_GE(inside, 0.97 * total) << scene << " frame " << f.id << " obj " << a.obj_id;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 10);
+}
+
+TEST_F(GeneratorTest, TumFilesMatchBopPoses) {
+  const std::string dir = Dir() + "/test/000001";
+  dataset::TumOptions tum;
+  auto bop = dataset::LoadBopScene(dir);
+  auto t = dataset::LoadTumSequence(dir, tum);
+  ASSERT_TRUE(bop.ok() && t.ok());
+  ASSERT_EQ(bop->frames.size(), t->frames.size());
+  for (size_t i = 0; i < t->frames.size(); ++i) {
+    EXPECT_TRUE(t->frames[i].T_wc.isApprox(bop->frames[i].T_wc, 1e-5));
+    EXPECT_EQ(t->frames[i].depth_path, bop->frames[i].depth_path);
+    EXPECT_DOUBLE_EQ(t->frames[i].depth_scale, bop->frames[i].depth_scale);
+  }
+}
+
+TEST(GeneratorOptionsTest, BadPresetAndTextureFolderAreReported) {
+  GeneratorOptions o;
+  o.out_dir = (fs::temp_directory_path() / "skimap_sim_bad").string();
+  o.preset = "huge";
+  EXPECT_EQ(Generate(o).status().code(), absl::StatusCode::kInvalidArgument);
+  o.preset = "mini";
+  o.texture_dir = "/nonexistent";
+  EXPECT_EQ(Generate(o).status().code(), absl::StatusCode::kNotFound);
+  fs::remove_all(o.out_dir);
+}
+
+}  // namespace
+}  // namespace skimap::sim
