@@ -2,9 +2,8 @@
 // points (raw points for the uniform workload, voxel centres for surface maps), queried
 // with radiusSearch (unsorted). A kd-tree cannot be updated, so a live map pays a rebuild
 // per frame: BM_RadiusSurfaceRebuild_Nanoflann times rebuild + one query.
-#include <nanoflann.hpp>
-
 #include <memory>
+#include <nanoflann.hpp>
 #include <utility>
 #include <vector>
 
@@ -33,7 +32,9 @@ class NanoflannAdapter {
     return tree_->radiusSearch(q, static_cast<float>(r * r), matches_, params);
   }
   size_t Voxels() const { return points_.size(); }
-  size_t LibBytes() const { return tree_->usedMemory(*tree_) + points_.capacity() * sizeof(PointF); }
+  size_t LibBytes() const {
+    return tree_->usedMemory(*tree_) + points_.capacity() * sizeof(PointF);
+  }
   void ReleaseScratch() { matches_ = {}; }
 
  private:

@@ -45,13 +45,15 @@ class SkiMapAdapter {
     return sum;
   }
   size_t HeightMap() const {
+    const absl::StatusOr<skimap::HeightMap> hm = ComputeHeightMap(map_, {});
     size_t known = 0;
-    for (float h : ComputeHeightMap(map_, {})->heights) known += !std::isnan(h);
+    for (float h : hm->heights) known += !std::isnan(h);
     return known;
   }
   size_t OccupancyGrid() const {
+    const absl::StatusOr<skimap::OccupancyGrid> grid = ComputeOccupancyGrid(map_, {});
     size_t occupied = 0;
-    for (int8_t c : ComputeOccupancyGrid(map_, {})->cells) {
+    for (int8_t c : grid->cells) {
       occupied += c == OccupancyGrid::kOccupied;
     }
     return occupied;

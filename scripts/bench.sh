@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Side-by-side benchmarks: installs the peer libraries, builds build/bench, runs every
+# benchmark group with JSON output into build/bench/results/<group>.json and prints the
+# ratio tables (scripts/bench_report.py). About 10 minutes on 2 cores.
+# Usage: scripts/bench.sh [--no-deps] [--update-docs]
+#   --no-deps      skip scripts/deps.sh --bench (not root, or peers already installed)
+#   --update-docs  also rewrite the generated part of docs/benchmarks.md
+# SKIMAP_BENCH_MIN_TIME (seconds per benchmark, default 0.3) and SKIMAP_BENCH_GROUPS
+# (default "insert radius queries memory") tune the run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+deps=1 update=0
+for a in "$@"; do
+  case "$a" in
+    --no-deps) deps=0 ;;
+    --update-docs) update=1 ;;
+    *) echo "unknown option: $a" >&2; exit 2 ;;
+  esac
+done
+((deps)) && bash scripts/deps.sh --bench
+bash scripts/build.sh bench skimap_bench
+bin=build/bench/bench/skimap_bench
+out=build/bench/results
+mkdir -p "$out"
+min_time=${SKIMAP_BENCH_MIN_TIME:-0.3}
+declare -A filter=(
+  [insert]='^BM_Insert'
+  [radius]='^BM_Radius'
+  [queries]='^BM_(BoxQuery|VisitAll|HeightMap|OccupancyGrid)_'
+  [memory]='^BM_Memory')
+for g in ${SKIMAP_BENCH_GROUPS:-insert radius queries memory}; do
+  echo "bench: $g (load: $(cut -d' ' -f1-3 /proc/loadavg))" >&2
+  # One process per group: the memory group measures heap deltas in a fresh process.
+  "$bin" --benchmark_filter="${filter[$g]}" --benchmark_min_time="$min_time" \
+    --benchmark_format=json >"$out/$g.json"
+done
+args=("$out")
+((update)) && args+=(--update docs/benchmarks.md)
+python3 scripts/bench_report.py "${args[@]}"

@@ -1,0 +1,228 @@
+#!/usr/bin/env python3
+"""Turns the side-by-side benchmark JSON (build/bench/results/*.json) into markdown tables
+with peer/SkiMap ratios and the issue's floors marked PASS / FAIL.
+
+Usage: scripts/bench_report.py RESULTS_DIR [--update docs/benchmarks.md]
+Without --update the tables go to stdout. With it, the part of the file between the
+GENERATED markers is replaced (the rest of the file is left alone).
+"""
+import glob
+import json
+import os
+import re
+import sys
+
+BEGIN = "<!-- BEGIN GENERATED (scripts/bench_report.py) -->"
+END = "<!-- END GENERATED -->"
+TO_NS = {"ns": 1.0, "us": 1e3, "ms": 1e6, "s": 1e9}
+
+
+def load(results_dir):
+    """name -> benchmark entry, plus the context of the first file."""
+    runs, context = {}, None
+    for path in sorted(glob.glob(os.path.join(results_dir, "*.json"))):
+        with open(path) as f:
+            data = json.load(f)
+        context = context or data.get("context", {})
+        for b in data.get("benchmarks", []):
+            if b.get("error_occurred"):
+                continue
+            name = b["name"].replace("/real_time", "").replace("/iterations:1", "")
+            runs[name] = b
+    return runs, context
+
+
+def ns(b):
+    return b["real_time"] * TO_NS[b.get("time_unit", "ns")]
+
+
+def fmt(v, digits=3):
+    if v is None:
+        return "–"
+    if v >= 100:
+        return f"{v:.0f}"
+    return f"{v:.{digits}g}"
+
+
+def ratio(peer, base):
+    return None if peer is None or base is None or base == 0 else peer / base
+
+
+def fmt_ratio(r):
+    return "–" if r is None else f"{r:.2f}×"
+
+
+class Report:
+    def __init__(self, runs):
+        self.runs = runs
+        self.floors = []  # (text, measured ratio text, pass?)
+
+    def get(self, op, structure, arg=None):
+        name = f"BM_{op}_{structure}" + ("" if arg is None else f"/{arg}")
+        return self.runs.get(name)
+
+    def ns_per_point(self, op, structure, arg):
+        b = self.get(op, structure, arg)
+        return None if b is None else ns(b) / b["points"]
+
+    def floor(self, text, r, need):
+        if r is None:
+            self.floors.append((text, "not measured", None))
+        else:
+            self.floors.append((text, f"{r:.2f}× (need ≥ {need:g}×)", r >= need))
+
+    def insert_table(self):
+        peers = ["SkiMap", "SkiMapPool", "OctoMap", "OpenVdb", "OctoMapRays"]
+        out = ["### Insert a frame (ns per point; lower is better)", "",
+               "| workload | res | structure state | " + " | ".join(peers) +
+               " | OctoMap / SkiMap | OctoMap / SkiMapPool | OpenVdb / SkiMap |",
+               "|---|---|---|" + "---|" * (len(peers) + 3)]
+        for wl, label in (("Room", "synthetic room"), ("Ycbv", "real ycbv")):
+            for res in (10, 20, 50):
+                for steady in (False, True):
+                    op = f"Insert{wl}" + ("Steady" if steady else "")
+                    v = {p: self.ns_per_point(op, p, res) for p in peers}
+                    if all(x is None for x in v.values()):
+                        continue
+                    r_oct = ratio(v["OctoMap"], v["SkiMap"])
+                    out.append(
+                        f"| {label} | {res / 10:g} cm | {'steady' if steady else 'empty'} | " +
+                        " | ".join(fmt(v[p]) for p in peers) +
+                        f" | {fmt_ratio(r_oct)} | {fmt_ratio(ratio(v['OctoMap'], v['SkiMapPool']))}"
+                        f" | {fmt_ratio(ratio(v['OpenVdb'], v['SkiMap']))} |")
+                    need = 10 if (wl == "Room" and res < 50) else 5
+                    self.floor(f"insert {label} {res / 10:g} cm "
+                               f"({'steady' if steady else 'empty'}): OctoMap updateNode / SkiMap",
+                               r_oct, need)
+        out.append("")
+        return out
+
+    def radius_table(self):
+        peers = ["SkiMap", "OctoMap", "PclOctree", "Nanoflann", "OpenVdb"]
+        out = ["### Radius search (µs per query; lower is better)", "",
+               "| workload | radius | hits | " + " | ".join(peers) +
+               " | OctoMap / SkiMap | PCL / SkiMap | nanoflann / SkiMap | OpenVdb / SkiMap |",
+               "|---|---|---|" + "---|" * (len(peers) + 4)]
+        for wl, label, radii in (("Uniform", "1 M uniform, 1 cm", (5, 20, 50)),
+                                 ("Surface", "room surface map, 1 cm", (2, 10, 20, 50, 100))):
+            for r in radii:
+                bs = {p: self.get(f"Radius{wl}", p, r) for p in peers}
+                if bs["SkiMap"] is None:
+                    continue
+                v = {p: None if b is None else ns(b) / 1e3 for p, b in bs.items()}
+                hits = bs["SkiMap"]["hits"]
+                rs = {p: ratio(v[p], v["SkiMap"]) for p in peers}
+                out.append(f"| {label} | {r} cm | {hits:.0f} | " +
+                           " | ".join(fmt(v[p]) for p in peers) + " | " +
+                           " | ".join(fmt_ratio(rs[p]) for p in peers[1:]) + " |")
+                if hits >= 1000:
+                    self.floor(f"radius {label} {r} cm ({hits:.0f} hits): OctoMap / SkiMap",
+                               rs["OctoMap"], 1)
+                    self.floor(f"radius {label} {r} cm ({hits:.0f} hits): PCL octree / SkiMap",
+                               rs["PclOctree"], 1)
+        reb = self.get("RadiusSurfaceRebuild", "Nanoflann", 50)
+        if reb is not None:
+            out += ["", f"nanoflann rebuild over the {reb['points']:.0f}-voxel surface map + one "
+                    f"50 cm query: {fmt(ns(reb) / 1e6)} ms per frame (what a kd-tree pays per "
+                    "frame in a live map)."]
+        out.append("")
+        return out
+
+    def query_table(self):
+        peers = ["SkiMap", "OctoMap", "OpenVdb"]
+        rows = [("BoxQuery", 50, "box 0.5 × 0.5 × 3.2 m", 1e3, "µs"),
+                ("BoxQuery", 200, "box 2 × 2 × 3.2 m", 1e3, "µs"),
+                ("VisitAll", None, "visit all", 1e6, "ms"),
+                ("HeightMap", None, "height map", 1e6, "ms"),
+                ("OccupancyGrid", None, "occupancy grid", 1e6, "ms")]
+        big = self.get("VisitAll", "SkiMap")
+        size = f"{big['voxels'] / 1e6:.1f} M" if big else "≥ 10 M"
+        out = [f"### Queries on the {size}-voxel warehouse map (1 cm; lower is better)", "",
+               "| query | unit | " + " | ".join(peers) + " | OctoMap / SkiMap | OpenVdb / SkiMap |",
+               "|---|---|" + "---|" * (len(peers) + 2)]
+        for op, arg, label, div, unit in rows:
+            v = {p: (lambda b: None if b is None else ns(b) / div)(self.get(op, p, arg))
+                 for p in peers}
+            if v["SkiMap"] is None:
+                continue
+            out.append(f"| {label} | {unit} | " + " | ".join(fmt(v[p]) for p in peers) +
+                       f" | {fmt_ratio(ratio(v['OctoMap'], v['SkiMap']))}"
+                       f" | {fmt_ratio(ratio(v['OpenVdb'], v['SkiMap']))} |")
+        out.append("")
+        return out
+
+    def memory_table(self):
+        peers = ["SkiMap", "OctoMap", "OpenVdb", "PclOctree", "Nanoflann"]
+        out = ["### Memory (measured heap bytes per voxel; lower is better)", "",
+               "| map | res | voxels | " + " | ".join(peers) +
+               " | SkiMap::MemoryUsage | OctoMap memoryUsage() | OctoMap / SkiMap |",
+               "|---|---|---|" + "---|" * (len(peers) + 3)]
+        for wl, label, res_list in (("Big", "warehouse (≥ 10 M)", (10,)),
+                                    ("Surface", "room surface (16 frames)", (10, 20, 50)),
+                                    ("Uniform", "1 M uniform points", (10,))):
+            for res in res_list:
+                bs = {p: self.get(f"Memory{wl}", p, res) for p in peers}
+                if bs["SkiMap"] is None:
+                    continue
+                v = {p: None if b is None else b["bytes_per_voxel"] for p, b in bs.items()}
+                lib = {p: None if b is None else b["lib_bytes_per_voxel"] for p, b in bs.items()}
+                r = ratio(v["OctoMap"], v["SkiMap"])
+                out.append(f"| {label} | {res / 10:g} cm | {bs['SkiMap']['voxels']:.0f} | " +
+                           " | ".join(fmt(v[p]) for p in peers) +
+                           f" | {fmt(lib['SkiMap'])} | {fmt(lib['OctoMap'])} | {fmt_ratio(r)} |")
+                self.floor(f"memory {label} {res / 10:g} cm: OctoMap / SkiMap bytes per voxel",
+                           r, 1)
+        out += ["", "PCL octree and nanoflann hold points (voxel centres on the surface maps), "
+                "and their figures include the point array they index.", ""]
+        return out
+
+    def floor_table(self):
+        out = ["### Floors of issue 2", "", "| floor | measured | result |", "|---|---|---|"]
+        for text, measured, ok in self.floors:
+            out.append(f"| {text} | {measured} | "
+                       f"{'–' if ok is None else ('PASS' if ok else '**FAIL**')} |")
+        out.append("")
+        return out
+
+
+def context_lines(context):
+    cpu = "unknown"
+    try:
+        with open("/proc/cpuinfo") as f:
+            m = re.search(r"^model name\s*:\s*(.*)$", f.read(), re.M)
+            cpu = m.group(1) if m else cpu
+    except OSError:
+        pass
+    load = context.get("load_avg", [])
+    return [f"Run of {context.get('date', '?')} on `{context.get('host_name', '?')}`: "
+            f"{context.get('num_cpus', '?')} CPUs ({cpu}, {context.get('mhz_per_cpu', '?')} MHz), "
+            f"load average at start {', '.join(f'{x:.2f}' for x in load) or '?'}; "
+            f"library build type {context.get('library_build_type', '?')}.", ""]
+
+
+def main():
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    runs, context = load(sys.argv[1])
+    if not runs:
+        sys.exit(f"no benchmark results in {sys.argv[1]}")
+    rep = Report(runs)
+    body = context_lines(context or {})
+    body += rep.insert_table() + rep.radius_table() + rep.query_table() + rep.memory_table()
+    body += rep.floor_table()
+    text = "\n".join(body)
+    if len(sys.argv) >= 4 and sys.argv[2] == "--update":
+        path = sys.argv[3]
+        with open(path) as f:
+            doc = f.read()
+        if BEGIN not in doc or END not in doc:
+            sys.exit(f"{path}: missing the GENERATED markers")
+        head, rest = doc.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1]
+        with open(path, "w") as f:
+            f.write(f"{head}{BEGIN}\n{text}\n{END}{tail}")
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
