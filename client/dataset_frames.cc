@@ -1,0 +1,97 @@
+#include "client/dataset_frames.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "dataset/reader.h"
+
+namespace skimap::client {
+namespace {
+
+absl::StatusOr<std::string> ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::NotFoundError(absl::StrCat("cannot read ", path));
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (fs::exists(fs::path(path) / "scene_camera.json") || fs::exists(fs::path(path) / "rgb.txt")) {
+    absl::StatusOr<dataset::Sequence> seq = dataset::LoadSequence(path);
+    if (!seq.ok()) return seq.status();
+    return std::move(seq->frames);
+  }
+  absl::StatusOr<dataset::BopDataset> bop = dataset::LoadBopDataset(path);
+  if (!bop.ok()) return bop.status();
+  std::vector<dataset::Frame> frames;
+  for (const auto& [split, scenes] : bop->scenes) {
+    for (const std::string& scene : scenes) {
+      dataset::BopSceneOptions options;
+      options.camera = bop->camera;
+      absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(scene, options);
+      if (!seq.ok()) return seq.status();
+      frames.insert(frames.end(), seq->frames.begin(), seq->frames.end());
+    }
+  }
+  if (frames.empty()) {
+    return absl::NotFoundError(absl::StrCat(path, ": no BOP scene or TUM sequence found"));
+  }
+  return frames;
+}
+
+absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string& map_name,
+                                     uint64_t sequence) {
+  if (!f.has_pose) {
+    return absl::FailedPreconditionError(absl::StrCat("frame ", f.id, " has no camera pose"));
+  }
+  if (f.depth_path.empty()) {
+    return absl::FailedPreconditionError(absl::StrCat("frame ", f.id, " has no depth image"));
+  }
+  v1::Frame out;
+  out.set_map(map_name);
+  out.set_sequence(sequence);
+  const double seconds = std::floor(f.timestamp);
+  out.mutable_timestamp()->set_seconds(static_cast<int64_t>(seconds));
+  out.mutable_timestamp()->set_nanos(static_cast<int32_t>((f.timestamp - seconds) * 1e9));
+  const Eigen::Quaterniond q(f.T_wc.rotation());
+  const Eigen::Vector3d t = f.T_wc.translation();
+  v1::Pose* pose = out.mutable_pose();
+  pose->mutable_rotation()->set_w(q.w());
+  pose->mutable_rotation()->set_x(q.x());
+  pose->mutable_rotation()->set_y(q.y());
+  pose->mutable_rotation()->set_z(q.z());
+  pose->mutable_translation()->set_x(t.x());
+  pose->mutable_translation()->set_y(t.y());
+  pose->mutable_translation()->set_z(t.z());
+  v1::CameraIntrinsics* k = out.mutable_intrinsics();
+  k->set_fx(f.K.fx);
+  k->set_fy(f.K.fy);
+  k->set_cx(f.K.cx);
+  k->set_cy(f.K.cy);
+  k->set_width(f.K.width);
+  k->set_height(f.K.height);
+  absl::StatusOr<std::string> depth = ReadBytes(f.depth_path);
+  if (!depth.ok()) return depth.status();
+  out.set_depth_encoding(v1::DEPTH_ENCODING_PNG16);
+  out.set_depth(*std::move(depth));
+  out.set_depth_scale(f.depth_scale / 1000.0);  // dataset: mm per unit; API: metres
+  if (!f.rgb_path.empty()) {
+    absl::StatusOr<std::string> color = ReadBytes(f.rgb_path);
+    if (!color.ok()) return color.status();
+    const std::string lower = absl::AsciiStrToLower(f.rgb_path);
+    out.set_color_encoding(absl::EndsWith(lower, ".png") ? v1::COLOR_ENCODING_PNG
+                                                         : v1::COLOR_ENCODING_JPEG);
+    out.set_color(*std::move(color));
+  }
+  return out;
+}
+
+}  // namespace skimap::client

@@ -1,0 +1,28 @@
+// Conversion of dataset frames (dataset/reader.h: BOP scenes, TUM sequences, sim output)
+// into API frames, sending the image files as stored: 16-bit PNG depth, PNG or JPEG colour.
+//
+// Thread safety: functions of their arguments.
+#ifndef CLIENT_DATASET_FRAMES_H_
+#define CLIENT_DATASET_FRAMES_H_
+
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "dataset/types.h"
+#include "skimap/v1/frames.pb.h"
+
+namespace skimap::client {
+
+// The frames of a dataset folder: a BOP scene or TUM sequence folder, or a BOP dataset
+// root (every scene of every split, in order). NotFound / InvalidArgument from the reader.
+absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string& path);
+
+// Reads the frame's files into a Frame for `map_name` with `sequence`.
+// FailedPrecondition if the frame has no pose or no depth image; NotFound for a missing file.
+absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& frame, const std::string& map_name,
+                                     uint64_t sequence);
+
+}  // namespace skimap::client
+
+#endif  // CLIENT_DATASET_FRAMES_H_

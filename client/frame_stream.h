@@ -1,0 +1,57 @@
+// FrameStream: the client side of one StreamFrames call, with a send window.
+//
+// Send() writes a frame and blocks while `window` frames are unacknowledged; a reader
+// thread collects acks as they arrive. Finish() half-closes, waits for the remaining acks
+// and returns all of them (in arrival order) or the call's error.
+//
+// Thread safety: Send and Finish from one thread; the ack callback runs on the reader
+// thread.
+#ifndef CLIENT_FRAME_STREAM_H_
+#define CLIENT_FRAME_STREAM_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include <functional>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "skimap/v1/map_service.grpc.pb.h"
+
+namespace skimap::client {
+
+class FrameStream {
+ public:
+  struct Options {
+    int window = 8;  // unacknowledged frames before Send blocks, >= 1
+    std::function<void(const v1::FrameAck&)> on_ack;  // optional, on the reader thread
+  };
+  // Starts the call on `stub` (not owned; must outlive the stream).
+  FrameStream(v1::MapService::Stub* stub, const Options& options);
+  ~FrameStream();  // cancels the call if Finish was not called
+
+  // Sends one frame. Unavailable/Cancelled... if the call has failed (see Finish).
+  absl::Status Send(const v1::Frame& frame);
+  // Ends the stream; returns every ack, or the call's status if it failed.
+  absl::StatusOr<std::vector<v1::FrameAck>> Finish();
+
+ private:
+  void ReadLoop();
+
+  const Options options_;
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::Frame, v1::FrameAck>> call_;
+  absl::Mutex mu_;
+  int unacked_ ABSL_GUARDED_BY(mu_) = 0;
+  bool reader_done_ ABSL_GUARDED_BY(mu_) = false;
+  std::vector<v1::FrameAck> acks_ ABSL_GUARDED_BY(mu_);
+  bool finished_ = false;
+  std::thread reader_;
+};
+
+}  // namespace skimap::client
+
+#endif  // CLIENT_FRAME_STREAM_H_

@@ -1,0 +1,78 @@
+// MapClient: the C++ client of skimap.v1.MapService (what the `skimap` CLI uses).
+//
+//   absl::StatusOr<std::unique_ptr<MapClient>> client = MapClient::Connect("localhost:50051");
+//   (*client)->CreateMap(request);
+//   std::unique_ptr<FrameStream> stream = (*client)->OpenFrameStream({.window = 8});
+//   stream->Send(frame);             // blocks while `window` frames are unacknowledged
+//   absl::StatusOr<std::vector<v1::FrameAck>> acks = stream->Finish();
+//
+// Errors come back as absl::Status with the server's code and message.
+//
+// Thread safety: MapClient is thread safe (one channel, any number of concurrent calls).
+// A FrameStream is used by one thread at a time.
+#ifndef CLIENT_MAP_CLIENT_H_
+#define CLIENT_MAP_CLIENT_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "client/frame_stream.h"
+#include "skimap/v1/map_service.grpc.pb.h"
+
+namespace skimap::client {
+
+class MapClient {
+ public:
+  struct Options {
+    int max_message_bytes = 80 << 20;            // match skimapd's --max_message_mb
+    absl::Duration timeout = absl::Seconds(60);  // deadline of each unary call
+  };
+  // Creates a channel to `target` (host:port); does not wait for the server.
+  static std::unique_ptr<MapClient> Connect(const std::string& target, const Options& options);
+  static std::unique_ptr<MapClient> Connect(const std::string& target) {
+    return Connect(target, Options{});
+  }
+  // Waits up to `timeout` for the channel to connect; Unavailable otherwise.
+  absl::Status WaitForServer(absl::Duration timeout);
+
+  absl::StatusOr<v1::Map> CreateMap(const v1::CreateMapRequest& request);
+  absl::StatusOr<v1::Map> GetMap(const std::string& name);
+  // Every map, following page tokens.
+  absl::StatusOr<std::vector<v1::Map>> ListAllMaps();
+  absl::StatusOr<v1::ListMapsResponse> ListMaps(const v1::ListMapsRequest& request);
+  absl::Status DeleteMap(const std::string& name);
+
+  absl::StatusOr<v1::FrameAck> IntegrateFrame(const v1::Frame& frame);
+  absl::StatusOr<v1::UpdatePosesResponse> UpdatePoses(const v1::UpdatePosesRequest& request);
+  // Opens a StreamFrames call.
+  std::unique_ptr<FrameStream> OpenFrameStream(const FrameStream::Options& options);
+
+  absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(const v1::GetOccupancyGridRequest& r);
+  absl::StatusOr<v1::HeightMap> GetHeightMap(const v1::GetHeightMapRequest& request);
+  absl::StatusOr<v1::GetVoxelsResponse> GetVoxels(const v1::GetVoxelsRequest& request);
+  // Every voxel of the request's box, via StreamVoxels.
+  absl::StatusOr<std::vector<v1::Voxel>> GetAllVoxels(const v1::GetVoxelsRequest& request);
+  absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(const v1::RadiusSearchRequest& r);
+
+  v1::MapService::Stub& stub() { return *stub_; }
+
+ private:
+  MapClient(std::shared_ptr<grpc::Channel> channel, const Options& options);
+  void SetDeadline(grpc::ClientContext* ctx) const;
+
+  const Options options_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::MapService::Stub> stub_;
+};
+
+// grpc::Status -> absl::Status (same codes).
+absl::Status FromGrpcStatus(const grpc::Status& status);
+
+}  // namespace skimap::client
+
+#endif  // CLIENT_MAP_CLIENT_H_

@@ -1,0 +1,165 @@
+// skimap: command-line client of skimapd.
+//
+//   skimap [--server=localhost:50051] maps ls | maps create ID [--resolution=0.05]
+//                                     | maps rm ID | maps info ID
+//   skimap stream DATASET --map=ID [--fps=0] [--resolution=0.05]   (creates ID if missing)
+//   skimap grid --map=ID -o FILE.yaml          ROS map_server PGM + YAML (trinary)
+//   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
+//   skimap voxels --map=ID -o FILE.ply
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/str_format.h"
+#include "client/map_client.h"
+#include "client/map_files.h"
+#include "client/stream_command.h"
+
+ABSL_FLAG(std::string, server, "localhost:50051", "skimapd address host:port");
+ABSL_FLAG(std::string, map, "", "map id (maps/ID)");
+ABSL_FLAG(std::string, o, "", "output file");
+ABSL_FLAG(double, fps, 0, "stream: frames per second (0 = as fast as the server takes them)");
+ABSL_FLAG(double, resolution, 0.05, "maps create / stream: voxel size in metres");
+ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
+
+namespace {
+
+using skimap::client::MapClient;
+namespace v1 = skimap::v1;
+
+int Fail(const absl::Status& s) {
+  std::fprintf(stderr, "skimap: %s\n", s.ToString().c_str());
+  return 1;
+}
+
+std::string MapNameFlag() { return "maps/" + absl::GetFlag(FLAGS_map); }
+
+void PrintMap(const v1::Map& m) {
+  const v1::MapStats& s = m.stats();
+  std::printf("%s  resolution %.3g m  voxels %llu  frames %llu  memory %.1f MiB", m.name().c_str(),
+              m.options().resolution(), (unsigned long long)s.voxels(),
+              (unsigned long long)s.frames(), s.memory_bytes() / 1048576.0);
+  if (s.has_bounds()) {
+    std::printf("  bounds [%.2f %.2f %.2f] .. [%.2f %.2f %.2f]", s.bounds().min().x(),
+                s.bounds().min().y(), s.bounds().min().z(), s.bounds().max().x(),
+                s.bounds().max().y(), s.bounds().max().z());
+  }
+  std::printf("\n");
+}
+
+int Maps(MapClient& client, const std::vector<std::string>& args) {
+  const std::string verb = args.size() > 2 ? args[2] : "ls";
+  if (verb == "ls") {
+    absl::StatusOr<std::vector<v1::Map>> maps = client.ListAllMaps();
+    if (!maps.ok()) return Fail(maps.status());
+    for (const v1::Map& m : *maps) PrintMap(m);
+    if (maps->empty()) std::printf("(no maps)\n");
+    return 0;
+  }
+  if (args.size() < 4) return Fail(absl::InvalidArgumentError("maps " + verb + " needs an ID"));
+  const std::string id = args[3];
+  if (verb == "create") {
+    v1::CreateMapRequest request;
+    request.set_map_id(id);
+    request.mutable_options()->set_resolution(absl::GetFlag(FLAGS_resolution));
+    absl::StatusOr<v1::Map> map = client.CreateMap(request);
+    if (!map.ok()) return Fail(map.status());
+    PrintMap(*map);
+    return 0;
+  }
+  if (verb == "rm") {
+    if (absl::Status s = client.DeleteMap("maps/" + id); !s.ok()) return Fail(s);
+    std::printf("deleted maps/%s\n", id.c_str());
+    return 0;
+  }
+  if (verb == "info") {
+    absl::StatusOr<v1::Map> map = client.GetMap("maps/" + id);
+    if (!map.ok()) return Fail(map.status());
+    std::printf("%s\n", map->DebugString().c_str());
+    return 0;
+  }
+  return Fail(absl::InvalidArgumentError("maps: ls | create ID | rm ID | info ID"));
+}
+
+int Grid(MapClient& client) {
+  v1::GetOccupancyGridRequest request;
+  request.set_map(MapNameFlag());
+  absl::StatusOr<v1::OccupancyGrid> grid = client.GetOccupancyGrid(request);
+  if (!grid.ok()) return Fail(grid.status());
+  const std::string out = absl::GetFlag(FLAGS_o);
+  if (absl::Status s = skimap::client::WriteRosMap(*grid, out); !s.ok()) return Fail(s);
+  std::printf("occupancy grid %ux%u cells at %.3g m -> %s (+ %s)\n", grid->width(), grid->height(),
+              grid->resolution(), out.c_str(),
+              skimap::client::ReplaceExtension(out, ".pgm").c_str());
+  return 0;
+}
+
+int HeightMap(MapClient& client) {
+  v1::GetHeightMapRequest request;
+  request.set_map(MapNameFlag());
+  absl::StatusOr<v1::HeightMap> map = client.GetHeightMap(request);
+  if (!map.ok()) return Fail(map.status());
+  const std::string out = absl::GetFlag(FLAGS_o);
+  if (absl::Status s = skimap::client::WriteHeightMap(*map, out); !s.ok()) return Fail(s);
+  std::printf("height map %ux%u cells at %.3g m -> %s (+ %s)\n", map->width(), map->height(),
+              map->resolution(), out.c_str(),
+              skimap::client::ReplaceExtension(out, ".yaml").c_str());
+  return 0;
+}
+
+int Voxels(MapClient& client) {
+  v1::GetVoxelsRequest request;
+  request.set_map(MapNameFlag());
+  request.set_page_size(50000);
+  absl::StatusOr<std::vector<v1::Voxel>> voxels = client.GetAllVoxels(request);
+  if (!voxels.ok()) return Fail(voxels.status());
+  const std::string out = absl::GetFlag(FLAGS_o);
+  if (absl::Status s = skimap::client::WritePly(*voxels, out); !s.ok()) return Fail(s);
+  std::printf("%zu voxels -> %s\n", voxels->size(), out.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage(
+      "skimap [--server=host:port] maps ls|create ID|rm ID|info ID\n"
+      "       skimap stream DATASET --map=ID [--fps=N]\n"
+      "       skimap grid --map=ID -o FILE.yaml\n"
+      "       skimap heightmap --map=ID -o FILE.png|FILE.tiff\n"
+      "       skimap voxels --map=ID -o FILE.ply");
+  std::vector<char*> positional = absl::ParseCommandLine(argc, argv);
+  std::vector<std::string> args(positional.begin(), positional.end());
+  if (args.size() < 2) {
+    std::fprintf(stderr, "%s\n", absl::ProgramUsageMessage().data());
+    return 2;
+  }
+  std::unique_ptr<MapClient> client = MapClient::Connect(absl::GetFlag(FLAGS_server));
+  const std::string& command = args[1];
+  if (command == "maps") return Maps(*client, args);
+  const bool needs_map =
+      command == "stream" || command == "grid" || command == "heightmap" || command == "voxels";
+  if (needs_map && absl::GetFlag(FLAGS_map).empty()) {
+    return Fail(absl::InvalidArgumentError(command + " needs --map=ID"));
+  }
+  if (command != "stream" && needs_map && absl::GetFlag(FLAGS_o).empty()) {
+    return Fail(absl::InvalidArgumentError(command + " needs -o FILE"));
+  }
+  if (command == "stream") {
+    if (args.size() < 3) return Fail(absl::InvalidArgumentError("stream needs a DATASET path"));
+    skimap::client::StreamOptions options;
+    options.map_id = absl::GetFlag(FLAGS_map);
+    options.fps = absl::GetFlag(FLAGS_fps);
+    options.resolution = absl::GetFlag(FLAGS_resolution);
+    options.window = absl::GetFlag(FLAGS_window);
+    absl::Status s = skimap::client::StreamDataset(*client, args[2], options);
+    return s.ok() ? 0 : Fail(s);
+  }
+  if (command == "grid") return Grid(*client);
+  if (command == "heightmap") return HeightMap(*client);
+  if (command == "voxels") return Voxels(*client);
+  return Fail(absl::InvalidArgumentError("unknown command " + command + " (see --help)"));
+}

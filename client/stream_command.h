@@ -1,0 +1,29 @@
+// `skimap stream`: sends a dataset's frames to a map over StreamFrames with a progress
+// line, then prints a summary (frames ok / failed, frames/s, the map's stats).
+//
+// Thread safety: one call at a time per MapClient stream (the client itself is shared).
+#ifndef CLIENT_STREAM_COMMAND_H_
+#define CLIENT_STREAM_COMMAND_H_
+
+#include <string>
+
+#include "absl/status/status.h"
+#include "client/map_client.h"
+
+namespace skimap::client {
+
+struct StreamOptions {
+  std::string map_id;        // created with `resolution` when it does not exist
+  double fps = 0;            // pacing; 0 = as fast as the server acknowledges
+  double resolution = 0.05;  // metres, only used to create the map
+  int window = 8;            // frames in flight
+  bool quiet = false;        // no progress line
+};
+
+// OK when every frame was acknowledged OK; otherwise the first error (after streaming all).
+absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
+                           const StreamOptions& options);
+
+}  // namespace skimap::client
+
+#endif  // CLIENT_STREAM_COMMAND_H_

@@ -1,0 +1,177 @@
+#include "perception/image_codec.h"
+
+#include <zstd.h>
+
+#include <cstring>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+
+namespace skimap::perception {
+namespace {
+
+constexpr int kMaxSide = 8192;
+
+absl::Status CheckSize(const char* what, int width, int height) {
+  if (width <= 0 || height <= 0 || width > kMaxSide || height > kMaxSide) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, ": image size ", width, "x", height, " outside 1..", kMaxSide));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SizeMismatch(const char* what, int got_w, int got_h, int width, int height) {
+  return absl::InvalidArgumentError(absl::StrCat(what, ": decoded image is ", got_w, "x", got_h,
+                                                 ", expected ", width, "x", height));
+}
+
+// imdecode wants a Mat; this one aliases the bytes without copying.
+cv::Mat Wrap(std::string_view bytes) {
+  return cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
+}
+
+void LoadLittleEndian(std::string_view bytes, std::vector<uint16_t>* out) {
+  out->resize(bytes.size() / 2);
+  const auto* p = reinterpret_cast<const uint8_t*>(bytes.data());
+  for (size_t i = 0; i < out->size(); ++i) (*out)[i] = uint16_t(p[2 * i] | (p[2 * i + 1] << 8));
+}
+
+std::string StoreLittleEndian(const std::vector<uint16_t>& pixels) {
+  std::string out(pixels.size() * 2, '\0');
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    out[2 * i] = static_cast<char>(pixels[i] & 0xff);
+    out[2 * i + 1] = static_cast<char>(pixels[i] >> 8);
+  }
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes, int width,
+                                       int height) {
+  if (absl::Status s = CheckSize("depth", width, height); !s.ok()) return s;
+  const size_t raw_bytes = size_t(width) * size_t(height) * 2;
+  DepthImage image{width, height, {}};
+  switch (codec) {
+    case DepthCodec::kRawU16:
+      if (bytes.size() != raw_bytes) {
+        return absl::InvalidArgumentError(absl::StrCat("depth: raw uint16 image has ", bytes.size(),
+                                                       " bytes, expected ", raw_bytes));
+      }
+      LoadLittleEndian(bytes, &image.pixels);
+      return image;
+    case DepthCodec::kZstd: {
+      const unsigned long long claimed = ZSTD_getFrameContentSize(bytes.data(), bytes.size());
+      if (claimed == ZSTD_CONTENTSIZE_ERROR || claimed == ZSTD_CONTENTSIZE_UNKNOWN) {
+        return absl::InvalidArgumentError("depth: not a zstd frame with a known content size");
+      }
+      if (claimed != raw_bytes) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("depth: zstd frame holds ", claimed, " bytes, expected ", raw_bytes));
+      }
+      std::string raw(raw_bytes, '\0');
+      const size_t n = ZSTD_decompress(raw.data(), raw.size(), bytes.data(), bytes.size());
+      if (ZSTD_isError(n) || n != raw_bytes) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "depth: zstd decode failed: ", ZSTD_isError(n) ? ZSTD_getErrorName(n) : "short"));
+      }
+      LoadLittleEndian(raw, &image.pixels);
+      return image;
+    }
+    case DepthCodec::kPng16: {
+      if (bytes.empty()) return absl::InvalidArgumentError("depth: empty PNG");
+      cv::Mat m = cv::imdecode(Wrap(bytes), cv::IMREAD_ANYDEPTH);
+      if (m.empty()) return absl::InvalidArgumentError("depth: PNG does not decode");
+      if (m.type() != CV_16UC1) {
+        return absl::InvalidArgumentError("depth: PNG must be 16-bit greyscale");
+      }
+      if (m.cols != width || m.rows != height) {
+        return SizeMismatch("depth", m.cols, m.rows, width, height);
+      }
+      image.pixels.resize(size_t(width) * height);
+      for (int r = 0; r < height; ++r) {
+        std::memcpy(&image.pixels[size_t(r) * width], m.ptr<uint16_t>(r), size_t(width) * 2);
+      }
+      return image;
+    }
+  }
+  return absl::InvalidArgumentError("depth_encoding: unknown codec");
+}
+
+absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes, int width,
+                                       int height) {
+  if (absl::Status s = CheckSize("color", width, height); !s.ok()) return s;
+  ColorImage image{width, height, {}};
+  const size_t raw_bytes = size_t(width) * size_t(height) * 3;
+  if (codec == ColorCodec::kRawRgb8) {
+    if (bytes.size() != raw_bytes) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("color: raw RGB image has ", bytes.size(), " bytes, expected ", raw_bytes));
+    }
+    image.rgb.assign(bytes.begin(), bytes.end());
+    return image;
+  }
+  if (bytes.empty()) return absl::InvalidArgumentError("color: empty image");
+  cv::Mat m = cv::imdecode(Wrap(bytes), cv::IMREAD_COLOR);  // always 8-bit BGR
+  if (m.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("color: ", codec == ColorCodec::kPng ? "PNG" : "JPEG", " does not decode"));
+  }
+  if (m.cols != width || m.rows != height) {
+    return SizeMismatch("color", m.cols, m.rows, width, height);
+  }
+  image.rgb.resize(raw_bytes);
+  cv::Mat rgb(height, width, CV_8UC3, image.rgb.data());
+  cv::cvtColor(m, rgb, cv::COLOR_BGR2RGB);
+  return image;
+}
+
+absl::StatusOr<std::string> EncodeDepth(DepthCodec codec, const DepthImage& image) {
+  if (absl::Status s = CheckSize("depth", image.width, image.height); !s.ok()) return s;
+  if (image.pixels.size() != size_t(image.width) * image.height) {
+    return absl::InvalidArgumentError("depth: pixel count differs from width x height");
+  }
+  switch (codec) {
+    case DepthCodec::kRawU16:
+      return StoreLittleEndian(image.pixels);
+    case DepthCodec::kZstd: {
+      const std::string raw = StoreLittleEndian(image.pixels);
+      std::string out(ZSTD_compressBound(raw.size()), '\0');
+      const size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), 1);
+      if (ZSTD_isError(n)) return absl::InternalError(ZSTD_getErrorName(n));
+      out.resize(n);
+      return out;
+    }
+    case DepthCodec::kPng16: {
+      const cv::Mat m(image.height, image.width, CV_16UC1,
+                      const_cast<uint16_t*>(image.pixels.data()));
+      std::vector<uint8_t> buf;
+      if (!cv::imencode(".png", m, buf, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
+        return absl::InternalError("depth: PNG encoding failed");
+      }
+      return std::string(buf.begin(), buf.end());
+    }
+  }
+  return absl::InvalidArgumentError("depth: unknown codec");
+}
+
+absl::StatusOr<std::string> EncodeColor(ColorCodec codec, const ColorImage& image) {
+  if (absl::Status s = CheckSize("color", image.width, image.height); !s.ok()) return s;
+  if (image.rgb.size() != size_t(image.width) * image.height * 3) {
+    return absl::InvalidArgumentError("color: byte count differs from width x height x 3");
+  }
+  if (codec == ColorCodec::kRawRgb8) return std::string(image.rgb.begin(), image.rgb.end());
+  const cv::Mat rgb(image.height, image.width, CV_8UC3, const_cast<uint8_t*>(image.rgb.data()));
+  cv::Mat bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  std::vector<uint8_t> buf;
+  const bool ok = codec == ColorCodec::kPng
+                      ? cv::imencode(".png", bgr, buf, {cv::IMWRITE_PNG_COMPRESSION, 1})
+                      : cv::imencode(".jpg", bgr, buf, {cv::IMWRITE_JPEG_QUALITY, 90});
+  if (!ok) return absl::InternalError("color: encoding failed");
+  return std::string(buf.begin(), buf.end());
+}
+
+}  // namespace skimap::perception

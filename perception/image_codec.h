@@ -1,0 +1,66 @@
+// Depth and colour images and their wire encodings (the DepthEncoding / ColorEncoding of
+// proto/skimap/v1/frames.proto).
+//
+//   absl::StatusOr<DepthImage> depth = DecodeDepth(DepthCodec::kPng16, bytes, 640, 480);
+//   absl::StatusOr<std::string> packed = EncodeDepth(DepthCodec::kZstd, *depth);
+//
+// Every decoder checks the decoded size against the expected width x height before it
+// trusts the data and returns InvalidArgument ("depth: ...", "color: ...") otherwise;
+// a zstd frame that claims more than width*height*2 bytes is rejected before allocation.
+//
+// Thread safety: free functions on values; safe from any thread.
+#ifndef PERCEPTION_IMAGE_CODEC_H_
+#define PERCEPTION_IMAGE_CODEC_H_
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/statusor.h"
+
+namespace skimap::perception {
+
+// Depth in sensor units, row-major; 0 = no measurement.
+struct DepthImage {
+  int width = 0, height = 0;
+  std::vector<uint16_t> pixels;  // width * height
+};
+
+// 8-bit colour, row-major, R G B per pixel.
+struct ColorImage {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgb;  // width * height * 3
+};
+
+enum class DepthCodec {
+  kRawU16,  // little-endian uint16, row-major
+  kPng16,   // 16-bit greyscale PNG
+  kZstd,    // one zstd frame of the kRawU16 bytes
+};
+
+enum class ColorCodec {
+  kRawRgb8,  // R G B bytes, row-major
+  kPng,
+  kJpeg,
+};
+
+// Decodes `bytes` as a width x height depth image. InvalidArgument if the bytes do not
+// decode, or decode to another size or pixel type.
+absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes, int width,
+                                       int height);
+
+// Decodes `bytes` as a width x height colour image (PNG/JPEG: grey or BGR(A) input is
+// converted to RGB). InvalidArgument as for DecodeDepth.
+absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes, int width,
+                                       int height);
+
+// Encodes a depth image (for clients, tests and benchmarks). InvalidArgument if the image
+// is inconsistent; Internal if the codec fails.
+absl::StatusOr<std::string> EncodeDepth(DepthCodec codec, const DepthImage& image);
+// Encodes a colour image; JPEG at quality 90.
+absl::StatusOr<std::string> EncodeColor(ColorCodec codec, const ColorImage& image);
+
+}  // namespace skimap::perception
+
+#endif  // PERCEPTION_IMAGE_CODEC_H_

@@ -1,0 +1,51 @@
+// RgbdFrame: one decoded RGB-D frame with its camera model and pose, and its validation.
+//
+// Conventions: pinhole camera with pixel centres at integer coordinates (OpenCV / BOP);
+// camera frame x right, y down, z forward; `pose` maps camera to world
+// (p_world = rotation * p_camera + translation), metres, world z up.
+//
+// Thread safety: plain values.
+#ifndef PERCEPTION_RGBD_FRAME_H_
+#define PERCEPTION_RGBD_FRAME_H_
+
+#include <optional>
+
+#include "Eigen/Geometry"
+#include "absl/status/status.h"
+#include "perception/image_codec.h"
+
+namespace skimap::perception {
+
+struct PinholeCamera {
+  double fx = 0, fy = 0;  // focal lengths, pixels
+  double cx = 0, cy = 0;  // principal point, pixels
+  int width = 0, height = 0;
+};
+
+// World <- camera rigid transform.
+struct CameraPose {
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();  // (w, x, y, z), unit
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();         // metres
+};
+
+struct RgbdFrame {
+  PinholeCamera camera;
+  CameraPose pose;
+  DepthImage depth;                 // camera.width x camera.height
+  double depth_scale = 0;           // metres per depth unit, > 0
+  std::optional<ColorImage> color;  // same size as depth; none = grey voxels
+};
+
+// Quaternion norms further than this from 1 are rejected (no silent normalization).
+inline constexpr double kQuaternionNormTolerance = 1e-3;
+
+// OK, or InvalidArgument naming the first bad field with the API's field names:
+// "intrinsics.fx must be > 0", "pose.rotation is not a unit quaternion", ...
+absl::Status ValidateCamera(const PinholeCamera& camera);
+absl::Status ValidatePose(const CameraPose& pose);
+// Camera, pose, depth_scale and that the images match the camera size.
+absl::Status ValidateFrame(const RgbdFrame& frame);
+
+}  // namespace skimap::perception
+
+#endif  // PERCEPTION_RGBD_FRAME_H_

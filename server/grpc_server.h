@@ -1,0 +1,59 @@
+// GrpcServer: a running skimapd endpoint: the MapService core, its gRPC adapter, the
+// standard health service and server reflection (v1alpha in gRPC 1.51), on one address.
+//
+//   absl::StatusOr<std::unique_ptr<GrpcServer>> server =
+//       GrpcServer::Start({.address = "127.0.0.1:0"});
+//   int port = (*server)->port();   // the bound port ("...:0" picks a free one)
+//   (*server)->Shutdown();          // stops accepting, cancels calls, drains map workers
+//
+// Thread safety: Shutdown and Wait may be called from any thread; Shutdown is idempotent.
+#ifndef SERVER_GRPC_SERVER_H_
+#define SERVER_GRPC_SERVER_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "server/grpc_service.h"
+#include "server/map_service.h"
+
+namespace skimap::server {
+
+class GrpcServer {
+ public:
+  struct Options {
+    std::string address = "0.0.0.0:50051";  // host:port; port 0 = any free port
+    MapService::Options service;
+    GrpcMapService::Options grpc;
+    // Largest gRPC message accepted or sent. Frames with images above
+    // service.max_frame_bytes get RESOURCE_EXHAUSTED in their ack; messages above this
+    // limit fail the call with RESOURCE_EXHAUSTED.
+    int max_message_bytes = 80 << 20;
+  };
+
+  // Binds and starts serving. Unavailable if the address cannot be bound.
+  static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options);
+  ~GrpcServer();  // Shutdown()
+
+  int port() const { return port_; }
+  MapService& service() { return *core_; }
+
+  // Stops accepting calls, cancels open ones after `grace` and waits for them.
+  void Shutdown(absl::Duration grace = absl::Seconds(2));
+  // Blocks until Shutdown has completed (from another thread).
+  void Wait() { server_->Wait(); }
+
+ private:
+  GrpcServer() = default;
+
+  std::unique_ptr<MapService> core_;
+  std::unique_ptr<GrpcMapService> grpc_service_;
+  std::unique_ptr<grpc::Server> server_;
+  int port_ = 0;
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_GRPC_SERVER_H_

@@ -1,0 +1,170 @@
+#include "server/live_map.h"
+
+#include <chrono>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "perception/frame_integrator.h"
+#include "server/frame_decode.h"
+
+namespace skimap::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void SetDuration(Clock::duration d, google::protobuf::Duration* out) {
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(d).count();
+  out->set_seconds(ns / 1000000000);
+  out->set_nanos(static_cast<int32_t>(ns % 1000000000));
+}
+
+}  // namespace
+
+LiveMap::LiveMap(std::string id, const Options& options)
+    : id_(std::move(id)),
+      options_(options),
+      volume_({.resolution = options.config.resolution, .pool = options.pool}),
+      queue_({.capacity = options.queue_capacity}) {}
+
+LiveMap::~LiveMap() = default;
+
+absl::Status LiveMap::MapGone() const {
+  return absl::NotFoundError(absl::StrCat("map ", MapName(id_), " was deleted"));
+}
+
+void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done) {
+  if (deleted_.load(std::memory_order_acquire)) return done(MapGone());
+  auto shared_done = std::make_shared<FrameDone>(std::move(done));
+  const bool queued =
+      queue_.TrySubmit([this, frame, shared_done] { (*shared_done)(IntegrateOnWorker(frame)); });
+  if (!queued) {
+    (*shared_done)(absl::ResourceExhaustedError(
+        absl::StrCat("map ", MapName(id_), ": write queue full (", options_.queue_capacity,
+                     " pending); retry later")));
+  }
+}
+
+void LiveMap::SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> request,
+                                PosesDone done) {
+  if (deleted_.load(std::memory_order_acquire)) return done(MapGone());
+  auto shared_done = std::make_shared<PosesDone>(std::move(done));
+  const bool queued = queue_.TrySubmit(
+      [this, request, shared_done] { (*shared_done)(UpdatePosesOnWorker(*request)); });
+  if (!queued) {
+    (*shared_done)(absl::ResourceExhaustedError(
+        absl::StrCat("map ", MapName(id_), ": write queue full; retry later")));
+  }
+}
+
+absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame) {
+  if (deleted_.load(std::memory_order_acquire)) return MapGone();
+  const Clock::time_point start = Clock::now();
+  if (sequences_.contains(frame->sequence())) {
+    return absl::AlreadyExistsError(
+        absl::StrCat("sequence: frame ", frame->sequence(), " is already in ", MapName(id_)));
+  }
+  absl::StatusOr<perception::RgbdFrame> decoded = DecodeFrame(*frame);
+  if (!decoded.ok()) return decoded.status();
+  const perception::IntegrationStats stats =
+      perception::BuildFrameBatch(*decoded, volume_.grid(), options_.config.integration, &batch_);
+  WriteStats written;
+  {
+    absl::MutexLock lock(&snapshot_mu_);
+    written = volume_.Integrate(batch_);
+    ++frames_;
+  }
+  sequences_.insert(frame->sequence());
+  KeepFrame(frame->sequence(), {frame, decoded->pose});
+  v1::FrameAck ack;
+  ack.set_sequence(frame->sequence());
+  ack.set_voxels_touched(written.voxels_touched);
+  ack.set_points(stats.points);
+  SetDuration(Clock::now() - start, ack.mutable_integration_time());
+  return ack;
+}
+
+void LiveMap::KeepFrame(uint64_t sequence, KeptFrame kept) {
+  const size_t bytes = kept.frame->ByteSizeLong();
+  kept_.emplace(sequence, std::move(kept));
+  absl::MutexLock lock(&snapshot_mu_);
+  kept_bytes_ += bytes;
+  while (kept_bytes_ > options_.max_kept_frame_bytes && !kept_.empty()) {
+    kept_bytes_ -= kept_.begin()->second.frame->ByteSizeLong();
+    kept_.erase(kept_.begin());
+  }
+}
+
+absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
+    const v1::UpdatePosesRequest& request) {
+  if (deleted_.load(std::memory_order_acquire)) return MapGone();
+  const Clock::time_point start = Clock::now();
+  // Validate everything first: all or nothing.
+  std::vector<perception::CameraPose> poses;
+  std::unordered_set<uint64_t> seen;
+  for (int i = 0; i < request.updates_size(); ++i) {
+    const v1::PoseUpdate& u = request.updates(i);
+    const std::string field = absl::StrCat("updates[", i, "]");
+    if (!seen.insert(u.sequence()).second) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ".sequence: frame ", u.sequence(), " appears twice"));
+    }
+    if (!sequences_.contains(u.sequence())) {
+      return absl::NotFoundError(absl::StrCat(field, ".sequence: frame ", u.sequence(),
+                                              " was never integrated into ", MapName(id_)));
+    }
+    if (!kept_.contains(u.sequence())) {
+      return absl::FailedPreconditionError(absl::StrCat(field, ".sequence: frame ", u.sequence(),
+                                                        " is no longer kept (memory limit)"));
+    }
+    absl::StatusOr<perception::CameraPose> pose = DecodePose(u.pose(), u.has_pose());
+    if (!pose.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ".", pose.status().message()));
+    }
+    poses.push_back(*pose);
+  }
+  v1::UpdatePosesResponse response;
+  WriteStats total;
+  for (int i = 0; i < request.updates_size(); ++i) {
+    KeptFrame& kept = kept_.at(request.updates(i).sequence());
+    absl::StatusOr<perception::RgbdFrame> frame = DecodeFrame(*kept.frame);
+    if (!frame.ok()) return frame.status();  // decoded fine before: cannot happen
+    const perception::IntegrationOptions& io = options_.config.integration;
+    frame->pose = kept.pose;
+    perception::BuildFrameBatch(*frame, volume_.grid(), io, &old_batch_);
+    frame->pose = poses[i];
+    perception::BuildFrameBatch(*frame, volume_.grid(), io, &batch_);
+    {
+      absl::MutexLock lock(&snapshot_mu_);
+      total += volume_.Deintegrate(old_batch_);
+      total += volume_.Integrate(batch_);
+    }
+    kept.pose = poses[i];
+  }
+  response.set_frames_updated(request.updates_size());
+  response.set_voxels_touched(total.voxels_touched);
+  SetDuration(Clock::now() - start, response.mutable_time());
+  return response;
+}
+
+v1::MapStats LiveMap::Stats() const {
+  v1::MapStats stats;
+  absl::ReaderMutexLock lock(&snapshot_mu_);
+  stats.set_voxels(volume_.size());
+  stats.set_memory_bytes(volume_.MemoryUsage());
+  stats.set_frames(frames_);
+  stats.set_kept_frame_bytes(kept_bytes_);
+  if (std::optional<KeyBox> box = volume_.Bounds()) {
+    const Grid& g = volume_.grid();
+    const double r = g.resolution();
+    auto* b = stats.mutable_bounds();
+    b->mutable_min()->set_x(g.origin().x + box->min.x * r);
+    b->mutable_min()->set_y(g.origin().y + box->min.y * r);
+    b->mutable_min()->set_z(g.origin().z + box->min.z * r);
+    b->mutable_max()->set_x(g.origin().x + (box->max.x + 1) * r);
+    b->mutable_max()->set_y(g.origin().y + (box->max.y + 1) * r);
+    b->mutable_max()->set_z(g.origin().z + (box->max.z + 1) * r);
+  }
+  return stats;
+}
+
+}  // namespace skimap::server

@@ -1,0 +1,116 @@
+// LiveMap: one map of the service: its RGB volume, the frames kept for pose updates, and
+// the worker that integrates frames in order.
+//
+//   LiveMap map("kitchen", {.config = config, .pool = &pool});
+//   map.SubmitFrame(frame, [](absl::StatusOr<v1::FrameAck> ack) { ... });
+//   absl::StatusOr<OccupancyGrid> grid =
+//       map.Read([&](const Volume& v, uint64_t frames) { return ComputeOccupancyGrid(v, o); });
+//
+// Writes (frames, pose updates) run one at a time on the map's worker thread, fed by a
+// bounded queue: a full queue answers ResourceExhausted at once instead of buffering.
+// Decoding and back-projection run outside any lock; only applying a frame's batch to the
+// volume holds the snapshot lock exclusively. Readers (Read, Stats) hold it shared, so
+// every read sees a consistent snapshot made of whole frames.
+//
+// Thread safety: thread safe. Completion callbacks run on the worker thread (or on the
+// submitting thread when the frame is refused up front) and must not block for long.
+#ifndef SERVER_LIVE_MAP_H_
+#define SERVER_LIVE_MAP_H_
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <unordered_set>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "perception/rgbd_frame.h"
+#include "server/map_config.h"
+#include "server/work_queue.h"
+#include "skimap/skimap.h"
+#include "skimap/thread_pool.h"
+#include "skimap/v1/frames.pb.h"
+#include "skimap/v1/maps.pb.h"
+
+namespace skimap::server {
+
+using Volume = SkiMap<RGBWeightedVoxel>;
+
+class LiveMap {
+ public:
+  struct Options {
+    MapConfig config;
+    ThreadPool* pool = nullptr;                     // threads for batch integration (not owned)
+    size_t queue_capacity = 64;                     // queued writes before ResourceExhausted
+    size_t max_kept_frame_bytes = size_t{1} << 30;  // oldest frames are dropped beyond
+  };
+  using FrameDone = std::function<void(absl::StatusOr<v1::FrameAck>)>;
+  using PosesDone = std::function<void(absl::StatusOr<v1::UpdatePosesResponse>)>;
+
+  LiveMap(std::string id, const Options& options);
+  ~LiveMap();  // runs the queued writes (they answer NotFound after MarkDeleted)
+  LiveMap(const LiveMap&) = delete;
+  LiveMap& operator=(const LiveMap&) = delete;
+
+  const std::string& id() const { return id_; }
+  const MapConfig& config() const { return options_.config; }
+
+  // Queues `frame` (REQUIRES: frame.map() names this map). `done` runs exactly once with
+  // the ack, or with: InvalidArgument (bad frame), AlreadyExists (sequence seen before),
+  // ResourceExhausted (queue full), NotFound (map deleted meanwhile).
+  void SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done);
+  // Queues pose corrections; `done` runs once. Validation is all-or-nothing:
+  // InvalidArgument (bad pose, duplicate sequence), NotFound (unknown sequence),
+  // FailedPrecondition (frame no longer kept); nothing is applied then.
+  void SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> request, PosesDone done);
+
+  // Runs fn(const Volume&, uint64_t frames_integrated) on a consistent snapshot and
+  // returns its result. fn must not call writers of this map.
+  template <class Fn>
+  auto Read(Fn&& fn) const {
+    absl::ReaderMutexLock lock(&snapshot_mu_);
+    return fn(volume_, frames_);
+  }
+  // Counters from one snapshot.
+  v1::MapStats Stats() const;
+
+  // Makes queued and future writes answer NotFound (the map left the registry).
+  void MarkDeleted() { deleted_.store(true, std::memory_order_release); }
+
+ private:
+  struct KeptFrame {
+    std::shared_ptr<const v1::Frame> frame;  // as received (encoded)
+    perception::CameraPose pose;             // pose it is integrated with now
+  };
+
+  // Worker thread only.
+  absl::StatusOr<v1::FrameAck> IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame);
+  absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(
+      const v1::UpdatePosesRequest& request);
+  void KeepFrame(uint64_t sequence, KeptFrame kept);
+  absl::Status MapGone() const;
+
+  const std::string id_;
+  const Options options_;
+  std::atomic<bool> deleted_{false};
+
+  mutable absl::Mutex snapshot_mu_;
+  Volume volume_ ABSL_GUARDED_BY(snapshot_mu_);
+  uint64_t frames_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
+  size_t kept_bytes_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
+
+  // Touched only on the worker thread (tasks of queue_ run one at a time).
+  std::map<uint64_t, KeptFrame> kept_;
+  std::unordered_set<uint64_t> sequences_;
+  VoxelBatch<RGBWeightedVoxel> batch_, old_batch_;
+
+  WorkQueue queue_;  // last: destroyed first, draining tasks while the rest is alive
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_LIVE_MAP_H_

@@ -1,0 +1,40 @@
+// MapConfig: the effective, validated options of one map (MapOptions with defaults filled),
+// and the resource-name helpers of the API ("maps/{map_id}").
+//
+// Thread safety: plain values and pure functions.
+#ifndef SERVER_MAP_CONFIG_H_
+#define SERVER_MAP_CONFIG_H_
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "perception/frame_integrator.h"
+#include "skimap/map_queries.h"
+#include "skimap/v1/maps.pb.h"
+
+namespace skimap::server {
+
+struct MapConfig {
+  double resolution = 0.05;  // metres
+  perception::IntegrationOptions integration;
+  float min_voxel_weight = 1;                                      // queries ignore lighter voxels
+  double band_min_z = 0.05, band_max_z = 1.5, floor_min_z = -0.3;  // occupancy grid band
+};
+
+// Fills the defaults of absent fields and validates. InvalidArgument naming the field
+// ("options.resolution must be in [0.001, 10]").
+absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& options);
+// The options message with every field set, as GetMap returns it.
+v1::MapOptions ToProto(const MapConfig& config);
+
+// OK if `map_id` is 1-63 characters of [a-z0-9_-] starting with a letter; InvalidArgument
+// naming `field` otherwise.
+absl::Status ValidateMapId(absl::string_view map_id, absl::string_view field);
+// "maps/{map_id}" -> map_id; InvalidArgument naming `field` for anything else.
+absl::StatusOr<std::string> ParseMapName(absl::string_view name, absl::string_view field);
+std::string MapName(absl::string_view map_id);
+
+}  // namespace skimap::server
+
+#endif  // SERVER_MAP_CONFIG_H_

@@ -1,0 +1,210 @@
+// MapService: spatial queries, each answered from one snapshot of the map.
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "server/map_service.h"
+#include "skimap/map_queries.h"
+
+namespace skimap::server {
+namespace {
+
+constexpr int kDefaultVoxelPage = 10000;
+constexpr int kMaxVoxelPage = 100000;
+constexpr int kDefaultRadiusResults = 100000;
+constexpr int kMaxRadiusResults = 1000000;
+
+absl::StatusOr<std::optional<Region2D>> ToRegion(const v1::Region2D& r, bool present) {
+  if (!present) return std::nullopt;
+  if (!std::isfinite(r.min_x()) || !std::isfinite(r.min_y()) || !std::isfinite(r.max_x()) ||
+      !std::isfinite(r.max_y()) || r.min_x() > r.max_x() || r.min_y() > r.max_y()) {
+    return absl::InvalidArgumentError("region must be finite with min <= max");
+  }
+  return Region2D{r.min_x(), r.min_y(), r.max_x(), r.max_y()};
+}
+
+absl::Status PrefixField(const absl::Status& s, absl::string_view field) {
+  return absl::Status(s.code(), absl::StrCat(field, ": ", s.message()));
+}
+
+void FillVoxel(const Grid& grid, const VoxelKey& k, const RGBWeightedVoxel& v, v1::Voxel* out) {
+  const Point3 c = grid.Center(k);
+  out->mutable_center()->set_x(c.x);
+  out->mutable_center()->set_y(c.y);
+  out->mutable_center()->set_z(c.z);
+  auto channel = [](float x) { return uint32_t(std::clamp(std::lround(x), 0l, 255l)); };
+  out->set_rgb(channel(v.Red()) << 16 | channel(v.Green()) << 8 | channel(v.Blue()));
+  out->set_weight(v.Weight());
+}
+
+template <class Raster>
+void FillGeometry(const RasterGeometry& g, uint64_t frames, Raster* out) {
+  out->set_resolution(g.resolution);
+  out->set_width(g.width);
+  out->set_height(g.height);
+  out->set_origin_x(g.origin_x);
+  out->set_origin_y(g.origin_y);
+  out->set_frames(frames);
+}
+
+// Key box of the voxels whose centres lie in `box` (all keys when absent).
+absl::StatusOr<KeyBox> ToKeyBox(const Grid& grid, const v1::GetVoxelsRequest& request) {
+  KeyBox keys;
+  if (!request.has_box()) return keys;
+  const v1::Box3& b = request.box();
+  const double lo[3] = {b.min().x(), b.min().y(), b.min().z()};
+  const double hi[3] = {b.max().x(), b.max().y(), b.max().z()};
+  const double origin[3] = {grid.origin().x, grid.origin().y, grid.origin().z};
+  int32_t* mins[3] = {&keys.min.x, &keys.min.y, &keys.min.z};
+  int32_t* maxs[3] = {&keys.max.x, &keys.max.y, &keys.max.z};
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || lo[a] > hi[a]) {
+      return absl::InvalidArgumentError("box must be finite with min <= max");
+    }
+    grid.CenterRange(lo[a], hi[a], origin[a], mins[a], maxs[a]);
+  }
+  return keys;
+}
+
+}  // namespace
+
+absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
+    const v1::GetOccupancyGridRequest& request) const {
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.map(), "map");
+  if (!map.ok()) return map.status();
+  absl::StatusOr<std::optional<Region2D>> region = ToRegion(request.region(), request.has_region());
+  if (!region.ok()) return region.status();
+  const MapConfig& c = (*map)->config();
+  OccupancyGridOptions o;
+  o.region = *region;
+  o.band_min_z = request.has_band_min_z() ? request.band_min_z() : c.band_min_z;
+  o.band_max_z = request.has_band_max_z() ? request.band_max_z() : c.band_max_z;
+  o.floor_min_z = request.has_floor_min_z() ? request.floor_min_z() : c.floor_min_z;
+  o.min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight() : c.min_voxel_weight;
+  if (!std::isfinite(o.band_min_z) || !std::isfinite(o.band_max_z) ||
+      !std::isfinite(o.floor_min_z) || !(o.floor_min_z <= o.band_min_z) ||
+      !(o.band_min_z <= o.band_max_z)) {
+    return absl::InvalidArgumentError(
+        "band_min_z: need finite floor_min_z <= band_min_z <= band_max_z");
+  }
+  v1::OccupancyGrid out;
+  absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t frames) {
+    absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
+    if (!grid.ok()) return PrefixField(grid.status(), "region");
+    FillGeometry(grid->geometry, frames, &out);
+    out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  return out;
+}
+
+absl::StatusOr<v1::HeightMap> MapService::GetHeightMap(
+    const v1::GetHeightMapRequest& request) const {
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.map(), "map");
+  if (!map.ok()) return map.status();
+  absl::StatusOr<std::optional<Region2D>> region = ToRegion(request.region(), request.has_region());
+  if (!region.ok()) return region.status();
+  HeightMapOptions o;
+  o.region = *region;
+  o.min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight()
+                                                : (*map)->config().min_voxel_weight;
+  v1::HeightMap out;
+  absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t frames) {
+    absl::StatusOr<HeightMap> hm = ComputeHeightMap(volume, o);
+    if (!hm.ok()) return PrefixField(hm.status(), "region");
+    FillGeometry(hm->geometry, frames, &out);
+    out.mutable_heights()->Assign(hm->heights.begin(), hm->heights.end());
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  return out;
+}
+
+absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
+    const v1::GetVoxelsRequest& request) const {
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.map(), "map");
+  if (!map.ok()) return map.status();
+  if (request.page_size() < 0 || request.page_size() > kMaxVoxelPage) {
+    return absl::InvalidArgumentError(absl::StrCat("page_size must be in 0..", kMaxVoxelPage));
+  }
+  const size_t page = request.page_size() == 0 ? kDefaultVoxelPage : request.page_size();
+  uint64_t start_packed = 0;
+  if (!request.page_token().empty() && (!absl::SimpleAtoi(request.page_token(), &start_packed) ||
+                                        start_packed >= (uint64_t{1} << (3 * kKeyBits)))) {
+    return absl::InvalidArgumentError("page_token is not a token from GetVoxels");
+  }
+  const float min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight()
+                                                          : (*map)->config().min_voxel_weight;
+  v1::GetVoxelsResponse out;
+  absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t) -> absl::Status {
+    const Grid& grid = volume.grid();
+    out.set_resolution(grid.resolution());
+    absl::StatusOr<KeyBox> box = ToKeyBox(grid, request);
+    if (!box.ok()) return box.status();
+    const std::optional<KeyBox> bounds = volume.Bounds();
+    if (!bounds || box->empty()) return absl::OkStatus();
+    const VoxelKey start = UnpackKey(start_packed);
+    KeyBox scan = *box;
+    scan.min.x =
+        std::max({scan.min.x, bounds->min.x, request.page_token().empty() ? kMinKey : start.x});
+    scan.max.x = std::min(scan.max.x, bounds->max.x);
+    // Walk x slabs so that a page stops early instead of visiting the whole box.
+    constexpr int32_t kSlab = 16;
+    std::optional<VoxelKey> next;
+    for (int32_t x0 = scan.min.x; x0 <= scan.max.x && !next; x0 += kSlab) {
+      KeyBox slab = scan;
+      slab.min.x = x0;
+      slab.max.x = std::min<int64_t>(int64_t{x0} + kSlab - 1, scan.max.x);
+      volume.ForEachInBox(slab, [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
+        if (next || PackKey(k) < start_packed || v.Weight() < min_weight) return;
+        if (size_t(out.voxels_size()) == page) {
+          next = k;
+          return;
+        }
+        FillVoxel(grid, k, v, out.add_voxels());
+      });
+    }
+    if (next) out.set_next_page_token(absl::StrCat(PackKey(*next)));
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  return out;
+}
+
+absl::StatusOr<v1::RadiusSearchResponse> MapService::RadiusSearch(
+    const v1::RadiusSearchRequest& request) const {
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.map(), "map");
+  if (!map.ok()) return map.status();
+  const v1::Vec3& c = request.center();
+  if (!std::isfinite(c.x()) || !std::isfinite(c.y()) || !std::isfinite(c.z())) {
+    return absl::InvalidArgumentError("center must be finite");
+  }
+  if (!(request.radius() > 0 && request.radius() <= 100)) {
+    return absl::InvalidArgumentError("radius must be in (0, 100] metres");
+  }
+  if (request.max_results() < 0 || request.max_results() > kMaxRadiusResults) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_results must be in 0..", kMaxRadiusResults));
+  }
+  const int limit = request.max_results() == 0 ? kDefaultRadiusResults : request.max_results();
+  const float min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight()
+                                                          : (*map)->config().min_voxel_weight;
+  v1::RadiusSearchResponse out;
+  (*map)->Read([&](const Volume& volume, uint64_t) {
+    volume.RadiusSearch({c.x(), c.y(), c.z()}, request.radius(),
+                        [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
+                          if (v.Weight() < min_weight) return;
+                          if (out.voxels_size() == limit) {
+                            out.set_truncated(true);
+                            return;
+                          }
+                          FillVoxel(volume.grid(), k, v, out.add_voxels());
+                        });
+    return 0;
+  });
+  return out;
+}
+
+}  // namespace skimap::server

@@ -1,0 +1,50 @@
+// WorkQueue: one worker thread running tasks in submission order from a bounded queue.
+//
+//   WorkQueue queue({.capacity = 64});
+//   if (!queue.TrySubmit([] { ... })) { /* full: tell the client RESOURCE_EXHAUSTED */ }
+//
+// The destructor stops accepting tasks, runs every task already queued, then joins.
+//
+// Thread safety: TrySubmit may be called from any thread, except from a task of the same
+// queue's destructor path (a task must not destroy its own queue).
+#ifndef SERVER_WORK_QUEUE_H_
+#define SERVER_WORK_QUEUE_H_
+
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <thread>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
+
+namespace skimap::server {
+
+class WorkQueue {
+ public:
+  struct Options {
+    size_t capacity = 64;  // queued (not yet running) tasks, >= 1
+  };
+  explicit WorkQueue(const Options& options);
+  ~WorkQueue();
+  WorkQueue(const WorkQueue&) = delete;
+  WorkQueue& operator=(const WorkQueue&) = delete;
+
+  // Queues `task`; false (and `task` dropped) when the queue is full or shutting down.
+  [[nodiscard]] bool TrySubmit(std::function<void()> task);
+  // Tasks queued and not yet started.
+  size_t pending() const;
+
+ private:
+  void Loop();
+
+  const size_t capacity_;
+  mutable absl::Mutex mu_;
+  std::deque<std::function<void()>> tasks_ ABSL_GUARDED_BY(mu_);
+  bool stopping_ ABSL_GUARDED_BY(mu_) = false;
+  std::thread thread_;
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_WORK_QUEUE_H_

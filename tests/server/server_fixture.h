@@ -1,0 +1,47 @@
+// An in-process skimapd on a real localhost port and a client connected to it.
+#ifndef TESTS_SERVER_SERVER_FIXTURE_H_
+#define TESTS_SERVER_SERVER_FIXTURE_H_
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "client/map_client.h"
+#include "server/grpc_server.h"
+
+namespace skimap::testing {
+
+class ServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    server::GrpcServer::Options options;
+    options.address = "127.0.0.1:0";
+    options.service.worker_threads = 1;
+    options.service.max_frame_bytes = 4 << 20;
+    options.max_message_bytes = 16 << 20;
+    options.grpc.max_in_flight = 4;
+    auto server = server::GrpcServer::Start(options);
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = *std::move(server);
+    client_ = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->port()));
+  }
+
+  // Creates maps/{id} at `resolution`; fails the test otherwise.
+  void CreateMap(const std::string& id, double resolution = 0.05) {
+    v1::CreateMapRequest request;
+    request.set_map_id(id);
+    request.mutable_options()->set_resolution(resolution);
+    auto map = client_->CreateMap(request);
+    ASSERT_TRUE(map.ok()) << map.status();
+  }
+
+  std::unique_ptr<server::GrpcServer> server_;
+  std::unique_ptr<client::MapClient> client_;
+};
+
+}  // namespace skimap::testing
+
+#endif  // TESTS_SERVER_SERVER_FIXTURE_H_
