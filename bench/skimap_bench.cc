@@ -20,7 +20,11 @@ class SkiMapAdapter {
   void Insert(const Cloud& cloud) {
     batch_.Clear();
     batch_.Reserve(cloud.size());
-    for (const PointF& p : cloud) batch_.Add(map_.grid(), p.x, p.y, p.z, WeightVoxel{1});
+    batch_.AddPoints(map_.grid(), cloud.size(), [&](size_t i, Point3* p, WeightVoxel* d) {
+      *p = {cloud[i].x, cloud[i].y, cloud[i].z};
+      *d = WeightVoxel{1};
+      return true;
+    });
     batch_.Finalize();
     map_.Integrate(batch_);
   }
