@@ -20,22 +20,25 @@ void FrameStream::ReadLoop() {
   v1::FrameAck ack;
   while (call_->Read(&ack)) {
     if (options_.on_ack) options_.on_ack(ack);
-    absl::MutexLock lock(&mu_);
-    --unacked_;
-    acks_.push_back(ack);
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      --unacked_;
+      acks_.push_back(ack);
+    }
+    cv_.notify_all();
   }
-  absl::MutexLock lock(&mu_);
-  reader_done_ = true;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    reader_done_ = true;
+  }
+  cv_.notify_all();
 }
 
 absl::Status FrameStream::Send(const v1::Frame& frame) {
   const int window = options_.window < 1 ? 1 : options_.window;
   {
-    absl::MutexLock lock(&mu_);
-    auto room = [this, window]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
-      return reader_done_ || unacked_ < window;
-    };
-    mu_.Await(absl::Condition(&room));
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait(lock, [this, window] { return reader_done_ || unacked_ < window; });
     if (reader_done_) return absl::UnavailableError("frame stream closed by the server");
     ++unacked_;
   }
@@ -49,7 +52,7 @@ absl::StatusOr<std::vector<v1::FrameAck>> FrameStream::Finish() {
   reader_.join();
   const grpc::Status status = call_->Finish();
   if (!status.ok()) return FromGrpcStatus(status);
-  absl::MutexLock lock(&mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   return std::move(acks_);
 }
 

@@ -11,14 +11,14 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <condition_variable>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
-#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/mutex.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
 namespace skimap::client {
@@ -44,10 +44,11 @@ class FrameStream {
   const Options options_;
   grpc::ClientContext context_;
   std::unique_ptr<grpc::ClientReaderWriter<v1::Frame, v1::FrameAck>> call_;
-  absl::Mutex mu_;
-  int unacked_ ABSL_GUARDED_BY(mu_) = 0;
-  bool reader_done_ ABSL_GUARDED_BY(mu_) = false;
-  std::vector<v1::FrameAck> acks_ ABSL_GUARDED_BY(mu_);
+  std::mutex mu_;  // std::mutex so that TSan sees it (Debian's Abseil is uninstrumented)
+  std::condition_variable cv_;
+  int unacked_ = 0;                 // guarded by mu_
+  bool reader_done_ = false;        // guarded by mu_
+  std::vector<v1::FrameAck> acks_;  // guarded by mu_
   bool finished_ = false;
   std::thread reader_;
 };

@@ -11,5 +11,5 @@ bash scripts/build.sh release
 (cd build/release && ctest --output-on-failure -j "$jobs" --timeout 600)
 bash scripts/build.sh asan skimap_test
 (cd build/asan && ctest --output-on-failure -R '^(SkipList|SkiMap|Voxel|RGB|MultiLabel|Hypotheses|Instances|Serialization|MapQueries)' --timeout 600)
-bash scripts/build.sh tsan skimap_concurrency_test
+bash scripts/build.sh tsan skimap_concurrency_test skimap_server_concurrency_test
 (cd build/tsan && TSAN_OPTIONS=halt_on_error=1 ctest --output-on-failure -L concurrency --timeout 900)

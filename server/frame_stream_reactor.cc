@@ -12,7 +12,7 @@ FrameStreamReactor::FrameStreamReactor(MapService* core, int max_in_flight)
 void FrameStreamReactor::OnReadDone(bool ok) {
   std::shared_ptr<v1::Frame> frame;
   {
-    absl::MutexLock lock(&mu_);
+    WriterLock lock(&mu_);
     read_pending_ = false;
     if (!ok) {
       reads_done_ = true;
@@ -40,7 +40,7 @@ void FrameStreamReactor::OnFrameDone(uint64_t sequence, absl::StatusOr<v1::Frame
     ack.set_message(std::string(result.status().message()));
   }
   {
-    absl::MutexLock lock(&mu_);
+    WriterLock lock(&mu_);
     acks_.push_back(std::move(ack));
   }
   Step();
@@ -48,7 +48,7 @@ void FrameStreamReactor::OnFrameDone(uint64_t sequence, absl::StatusOr<v1::Frame
 
 void FrameStreamReactor::OnWriteDone(bool ok) {
   {
-    absl::MutexLock lock(&mu_);
+    WriterLock lock(&mu_);
     write_pending_ = false;
     --in_flight_;
     if (!ok) broken_ = true;
@@ -61,7 +61,7 @@ void FrameStreamReactor::Step() {
   v1::Frame* read = nullptr;
   bool finish = false;
   {
-    absl::MutexLock lock(&mu_);
+    WriterLock lock(&mu_);
     if (broken_) {
       in_flight_ -= static_cast<int>(acks_.size());
       acks_.clear();

@@ -18,8 +18,8 @@
 #include <memory>
 
 #include "absl/base/thread_annotations.h"
-#include "absl/synchronization/mutex.h"
 #include "server/map_service.h"
+#include "skimap/rw_lock.h"
 #include "skimap/v1/frames.pb.h"
 
 namespace skimap::server {
@@ -40,7 +40,7 @@ class FrameStreamReactor final : public grpc::ServerBidiReactor<v1::Frame, v1::F
 
   MapService* const core_;
   const int max_in_flight_;
-  absl::Mutex mu_;
+  RwLock mu_;
   std::shared_ptr<v1::Frame> reading_ ABSL_GUARDED_BY(mu_);
   v1::FrameAck writing_ ABSL_GUARDED_BY(mu_);
   std::deque<v1::FrameAck> acks_ ABSL_GUARDED_BY(mu_);  // done, not yet written

@@ -69,7 +69,7 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
       perception::BuildFrameBatch(*decoded, volume_.grid(), options_.config.integration, &batch_);
   WriteStats written;
   {
-    absl::MutexLock lock(&snapshot_mu_);
+    WriterLock lock(&snapshot_mu_);
     written = volume_.Integrate(batch_);
     ++frames_;
   }
@@ -86,7 +86,7 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
 void LiveMap::KeepFrame(uint64_t sequence, KeptFrame kept) {
   const size_t bytes = kept.frame->ByteSizeLong();
   kept_.emplace(sequence, std::move(kept));
-  absl::MutexLock lock(&snapshot_mu_);
+  WriterLock lock(&snapshot_mu_);
   kept_bytes_ += bytes;
   while (kept_bytes_ > options_.max_kept_frame_bytes && !kept_.empty()) {
     kept_bytes_ -= kept_.begin()->second.frame->ByteSizeLong();
@@ -134,7 +134,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
     frame->pose = poses[i];
     perception::BuildFrameBatch(*frame, volume_.grid(), io, &batch_);
     {
-      absl::MutexLock lock(&snapshot_mu_);
+      WriterLock lock(&snapshot_mu_);
       total += volume_.Deintegrate(old_batch_);
       total += volume_.Integrate(batch_);
     }
@@ -148,7 +148,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
 
 v1::MapStats LiveMap::Stats() const {
   v1::MapStats stats;
-  absl::ReaderMutexLock lock(&snapshot_mu_);
+  ReaderLock lock(&snapshot_mu_);
   stats.set_voxels(volume_.size());
   stats.set_memory_bytes(volume_.MemoryUsage());
   stats.set_frames(frames_);

@@ -27,10 +27,10 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/mutex.h"
 #include "perception/rgbd_frame.h"
 #include "server/map_config.h"
 #include "server/work_queue.h"
+#include "skimap/rw_lock.h"
 #include "skimap/skimap.h"
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
@@ -72,7 +72,7 @@ class LiveMap {
   // returns its result. fn must not call writers of this map.
   template <class Fn>
   auto Read(Fn&& fn) const {
-    absl::ReaderMutexLock lock(&snapshot_mu_);
+    ReaderLock lock(&snapshot_mu_);
     return fn(volume_, frames_);
   }
   // Counters from one snapshot.
@@ -98,7 +98,7 @@ class LiveMap {
   const Options options_;
   std::atomic<bool> deleted_{false};
 
-  mutable absl::Mutex snapshot_mu_;
+  mutable RwLock snapshot_mu_;
   Volume volume_ ABSL_GUARDED_BY(snapshot_mu_);
   uint64_t frames_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
   size_t kept_bytes_ ABSL_GUARDED_BY(snapshot_mu_) = 0;

@@ -6,7 +6,7 @@ namespace skimap::server {
 
 absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Create(const std::string& id,
                                                              const MapConfig& config) {
-  absl::MutexLock lock(&mu_);
+  WriterLock lock(&mu_);
   if (maps_.contains(id)) {
     return absl::AlreadyExistsError(absl::StrCat("map ", MapName(id), " already exists"));
   }
@@ -22,7 +22,7 @@ absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Create(const std::string& 
 }
 
 absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Get(const std::string& id) const {
-  absl::MutexLock lock(&mu_);
+  WriterLock lock(&mu_);
   auto it = maps_.find(id);
   if (it == maps_.end()) {
     return absl::NotFoundError(absl::StrCat("map ", MapName(id), " not found"));
@@ -33,7 +33,7 @@ absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Get(const std::string& id)
 std::vector<std::shared_ptr<LiveMap>> MapRegistry::List(const std::string& after,
                                                         size_t limit) const {
   std::vector<std::shared_ptr<LiveMap>> out;
-  absl::MutexLock lock(&mu_);
+  WriterLock lock(&mu_);
   for (auto it = maps_.upper_bound(after); it != maps_.end() && out.size() < limit; ++it) {
     out.push_back(it->second);
   }
@@ -43,7 +43,7 @@ std::vector<std::shared_ptr<LiveMap>> MapRegistry::List(const std::string& after
 absl::Status MapRegistry::Delete(const std::string& id) {
   std::shared_ptr<LiveMap> doomed;
   {
-    absl::MutexLock lock(&mu_);
+    WriterLock lock(&mu_);
     auto it = maps_.find(id);
     if (it == maps_.end()) {
       return absl::NotFoundError(absl::StrCat("map ", MapName(id), " not found"));

@@ -12,8 +12,8 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/mutex.h"
 #include "server/live_map.h"
+#include "skimap/rw_lock.h"
 
 namespace skimap::server {
 
@@ -38,7 +38,7 @@ class MapRegistry {
 
  private:
   const Options options_;
-  mutable absl::Mutex mu_;
+  mutable RwLock mu_;
   std::map<std::string, std::shared_ptr<LiveMap>> maps_ ABSL_GUARDED_BY(mu_);
 };
 

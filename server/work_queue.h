@@ -10,13 +10,12 @@
 #ifndef SERVER_WORK_QUEUE_H_
 #define SERVER_WORK_QUEUE_H_
 
+#include <condition_variable>
 #include <cstddef>
 #include <deque>
 #include <functional>
+#include <mutex>
 #include <thread>
-
-#include "absl/base/thread_annotations.h"
-#include "absl/synchronization/mutex.h"
 
 namespace skimap::server {
 
@@ -39,9 +38,11 @@ class WorkQueue {
   void Loop();
 
   const size_t capacity_;
-  mutable absl::Mutex mu_;
-  std::deque<std::function<void()>> tasks_ ABSL_GUARDED_BY(mu_);
-  bool stopping_ ABSL_GUARDED_BY(mu_) = false;
+  // std::mutex, not absl::Mutex: Debian's Abseil is not TSan-instrumented (skimap/rw_lock.h).
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<std::function<void()>> tasks_;  // guarded by mu_
+  bool stopping_ = false;                    // guarded by mu_
   std::thread thread_;
 };
 

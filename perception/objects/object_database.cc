@@ -9,14 +9,14 @@
 namespace skimap::objects {
 namespace {
 
-absl::Status Bad(std::string_view field, double value, std::string_view want) {
+absl::Status Bad(const char* field, double value, const char* want) {
   return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " must be ", want));
 }
 
 // Defaults per descriptor, measured on the sim objects (docs/objects.md, "Parameters").
 double DefaultBandwidth(const std::string& detector, const DescriptorLayout& l) {
-  if (l.binary()) return 0.2 * l.dims;  // ORB: 51 of 256 bits
-  return detector == "SIFT" ? 180.0 : 0.5;
+  if (l.binary()) return 0.25 * l.dims;  // ORB: 64 of 256 bits
+  return detector == "SIFT" ? 200.0 : 0.5;
 }
 double DefaultVerifyThreshold(const std::string& detector, const DescriptorLayout& l) {
   if (l.binary()) return 0.3 * l.dims;  // ORB: 77 of 256 bits

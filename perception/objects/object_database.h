@@ -33,7 +33,7 @@ namespace skimap::objects {
 struct ObjectDatabaseParams {
   FeatureOptions features;       // detector name and features per image
   double resolution = 0.01;      // descriptor-voxel edge, metres, in [0.001, 1]
-  MeanShiftOptions mean_shift;   // bandwidth <= 0: the detector's default (docs/objects.md)
+  MeanShiftOptions mean_shift{.bandwidth = 0};  // bandwidth <= 0: the detector's default
   int classes_per_object = 100;  // k, >= 1
   ForestOptions forest;          // trees x depth (paper: 24 x 24)
   int max_samples_per_class = 0;  // forest training samples per class; 0 = all

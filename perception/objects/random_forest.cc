@@ -147,7 +147,7 @@ class TreeBuilder {
 }  // namespace
 
 absl::Status ValidateForestOptions(const ForestOptions& o) {
-  auto bad = [](std::string_view field, auto value, std::string_view want) {
+  auto bad = [](const char* field, auto value, const char* want) {
     return absl::InvalidArgumentError(absl::StrCat(field, ": ", value, " must be ", want));
   };
   if (o.trees < 1 || o.trees > 1024) return bad("trees", o.trees, "in 1..1024");

@@ -1,0 +1,84 @@
+// End to end with processes: skimapd as a child process on a real port, frames from the
+// client library, files from the `skimap` CLI, clean stop on SIGTERM.
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "absl/strings/str_cat.h"
+#include "client/map_client.h"
+#include "tests/server/synthetic_scene.h"
+
+namespace skimap::testing {
+namespace {
+
+int FreePort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  socklen_t len = sizeof addr;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  close(fd);
+  return ntohs(addr.sin_port);
+}
+
+TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / absl::StrCat("skimap_process_test_", getpid()))
+          .string();
+  std::filesystem::create_directories(dir);
+  const std::string address = absl::StrCat("127.0.0.1:", FreePort());
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const std::string addr_flag = "--address=" + address, dir_flag = "--data_dir=" + dir + "/d";
+    execl(SKIMAPD_PATH, SKIMAPD_PATH, addr_flag.c_str(), dir_flag.c_str(), "--worker_threads=1",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  std::unique_ptr<client::MapClient> client = client::MapClient::Connect(address);
+  ASSERT_TRUE(client->WaitForServer(absl::Seconds(20)).ok());
+  v1::CreateMapRequest create;
+  create.set_map_id("proc");
+  ASSERT_TRUE(client->CreateMap(create).ok());
+  auto ack = client->IntegrateFrame(MakeFrame("maps/proc", 1, DefaultView()));
+  ASSERT_TRUE(ack.ok()) << ack.status();
+
+  const std::string yaml = dir + "/grid.yaml";
+  const std::string command =
+      absl::StrCat(SKIMAP_CLI_PATH, " --server=", address, " grid --map=proc -o ", yaml);
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  std::ifstream pgm(dir + "/grid.pgm", std::ios::binary);
+  std::string magic;
+  int width = 0, height = 0;
+  pgm >> magic;
+  pgm.ignore(1000, '\n');  // end of the magic line
+  pgm.ignore(1000, '\n');  // the comment line
+  pgm >> width >> height;
+  EXPECT_EQ(magic, "P5");
+  EXPECT_GT(width, 10);
+  EXPECT_GT(height, 10);
+  std::ifstream yaml_in(yaml);
+  std::stringstream text;
+  text << yaml_in.rdbuf();
+  EXPECT_NE(text.str().find("mode: trinary"), std::string::npos);
+
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  EXPECT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace skimap::testing
