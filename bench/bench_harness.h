@@ -8,6 +8,7 @@
 //     size_t Voxels() const;                            // voxels (points) stored
 //     size_t LibBytes() const;                          // the library's own estimate, 0 if none
 //     void ReleaseScratch();                            // free reusable buffers (for memory)
+//     void Reset();  // optional: empty the structure but keep reusable scratch buffers
 //     // optional, for maps (detected with requires-expressions):
 //     size_t BoxCount(const PointF& lo, const PointF& hi) const;
 //     double VisitAll() const;  size_t HeightMap() const;  size_t OccupancyGrid() const;
@@ -91,8 +92,16 @@ void RunInsert(benchmark::State& state, const std::vector<Cloud>& frames, bool s
   const double res = state.range(0) * 1e-3;
   std::unique_ptr<S> s;
   auto reset = [&] {
-    s.reset();
-    s = std::make_unique<S>(res);
+    if constexpr (requires { s->Reset(); }) {
+      if (s != nullptr) {
+        s->Reset();  // keeps the structure's reusable scratch, as a live map worker would
+      } else {
+        s = std::make_unique<S>(res);
+      }
+    } else {
+      s.reset();
+      s = std::make_unique<S>(res);
+    }
     if (steady) {
       for (const Cloud& f : frames) s->Insert(f);
     }

@@ -1,6 +1,7 @@
 // SkiMap side of the side-by-side benchmarks: batch integration (with and without the
 // thread pool) and the map's own query API. See bench_harness.h for the loops.
 #include <cmath>
+#include <memory>
 
 #include "bench/bench_harness.h"
 #include "skimap/map_queries.h"
@@ -14,56 +15,63 @@ template <int kWorkers>
 class SkiMapAdapter {
  public:
   static constexpr bool kStoresPoints = false;
-  explicit SkiMapAdapter(double res) : map_({.resolution = res, .pool = Pool()}) {}
+  explicit SkiMapAdapter(double res) : res_(res) { Reset(); }
+
+  // A new, empty map; the batch (scratch a map worker keeps between frames) is kept.
+  void Reset() {
+    map_.reset();
+    map_ = std::make_unique<SkiMap<WeightVoxel>>(
+        SkiMap<WeightVoxel>::Options{.resolution = res_, .pool = Pool()});
+  }
 
   // One frame: aggregate per voxel in a batch, then one tree update per distinct voxel.
   void Insert(const Cloud& cloud) {
     batch_.Clear();
     batch_.Reserve(cloud.size());
-    batch_.AddPoints(map_.grid(), cloud.size(), [&](size_t i, Point3* p, WeightVoxel* d) {
+    batch_.AddPoints(map_->grid(), cloud.size(), [&](size_t i, Point3* p, WeightVoxel* d) {
       *p = {cloud[i].x, cloud[i].y, cloud[i].z};
       *d = WeightVoxel{1};
       return true;
     });
     batch_.Finalize();
-    map_.Integrate(batch_);
+    map_->Integrate(batch_);
   }
   size_t RadiusCount(const PointF& c, double r) const {
     size_t n = 0;
-    map_.RadiusSearch({c.x, c.y, c.z}, r, [&](const VoxelKey&, const WeightVoxel&) { ++n; });
+    map_->RadiusSearch({c.x, c.y, c.z}, r, [&](const VoxelKey&, const WeightVoxel&) { ++n; });
     return n;
   }
   size_t BoxCount(const PointF& lo, const PointF& hi) const {
     KeyBox box;
-    if (!map_.grid().ToKey(lo.x, lo.y, lo.z, &box.min) ||
-        !map_.grid().ToKey(hi.x, hi.y, hi.z, &box.max)) {
+    if (!map_->grid().ToKey(lo.x, lo.y, lo.z, &box.min) ||
+        !map_->grid().ToKey(hi.x, hi.y, hi.z, &box.max)) {
       return 0;
     }
     size_t n = 0;
-    map_.ForEachInBox(box, [&](const VoxelKey&, const WeightVoxel&) { ++n; });
+    map_->ForEachInBox(box, [&](const VoxelKey&, const WeightVoxel&) { ++n; });
     return n;
   }
   double VisitAll() const {
     double sum = 0;
-    map_.ForEach([&](const VoxelKey&, const WeightVoxel& v) { sum += v.weight; });
+    map_->ForEach([&](const VoxelKey&, const WeightVoxel& v) { sum += v.weight; });
     return sum;
   }
   size_t HeightMap() const {
-    const absl::StatusOr<skimap::HeightMap> hm = ComputeHeightMap(map_, {});
+    const absl::StatusOr<skimap::HeightMap> hm = ComputeHeightMap(*map_, {});
     size_t known = 0;
     for (float h : hm->heights) known += !std::isnan(h);
     return known;
   }
   size_t OccupancyGrid() const {
-    const absl::StatusOr<skimap::OccupancyGrid> grid = ComputeOccupancyGrid(map_, {});
+    const absl::StatusOr<skimap::OccupancyGrid> grid = ComputeOccupancyGrid(*map_, {});
     size_t occupied = 0;
     for (int8_t c : grid->cells) {
       occupied += c == OccupancyGrid::kOccupied;
     }
     return occupied;
   }
-  size_t Voxels() const { return map_.size(); }
-  size_t LibBytes() const { return map_.MemoryUsage(); }
+  size_t Voxels() const { return map_->size(); }
+  size_t LibBytes() const { return map_->MemoryUsage(); }
   void ReleaseScratch() { batch_ = {}; }
 
  private:
@@ -75,7 +83,8 @@ class SkiMapAdapter {
       return &pool;
     }
   }
-  SkiMap<WeightVoxel> map_;
+  double res_;
+  std::unique_ptr<SkiMap<WeightVoxel>> map_;
   VoxelBatch<WeightVoxel> batch_;
 };
 
