@@ -92,15 +92,29 @@ class Grid {
     return {AxisCenter(k.x, origin_.x), AxisCenter(k.y, origin_.y), AxisCenter(k.z, origin_.z)};
   }
 
-  // Keys whose voxel centres lie in [lo, hi] on one axis (may be empty: *first > *last).
+  // Keys whose voxel centres lie in [lo, hi] on one axis (may be empty: *first > *last),
+  // clamped to the key range. Inlined arithmetic, no libm calls: it runs once per column in
+  // radius searches.
   void CenterRange(double lo, double hi, double origin, int32_t* first, int32_t* last) const {
-    const double a = std::ceil((lo - origin) * inv_resolution_ - 0.5);
-    const double b = std::floor((hi - origin) * inv_resolution_ - 0.5);
-    *first = a < kMinKey ? kMinKey : a > kMaxKey ? kMaxKey + 1 : static_cast<int32_t>(a);
-    *last = b > kMaxKey ? kMaxKey : b < kMinKey ? kMinKey - 1 : static_cast<int32_t>(b);
+    *first = ClampedCeil((lo - origin) * inv_resolution_ - 0.5);
+    *last = ClampedFloor((hi - origin) * inv_resolution_ - 0.5);
   }
 
  private:
+  // floor / ceil into [kMinKey - 1, kMaxKey + 1] (NaN gives an empty range).
+  static int32_t ClampedFloor(double v) {
+    if (!(v >= kMinKey)) return v >= kMinKey - 1.0 ? kMinKey - 1 : (v < 0 ? kMinKey - 1 : kMaxKey);
+    if (v > kMaxKey) return kMaxKey;
+    int32_t i = static_cast<int32_t>(v);
+    return i - (v < i);
+  }
+  static int32_t ClampedCeil(double v) {
+    if (!(v <= kMaxKey)) return v <= kMaxKey + 1.0 ? kMaxKey + 1 : (v > 0 ? kMaxKey + 1 : kMinKey);
+    if (v < kMinKey) return kMinKey;
+    int32_t i = static_cast<int32_t>(v);
+    return i + (v > i);
+  }
+
   double resolution_;
   double inv_resolution_;
   Point3 origin_;

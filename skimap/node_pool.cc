@@ -52,6 +52,15 @@ void NodePool::Free(void* block, size_t bytes) {
   if (in_use_bytes_ == 0) ReleaseChunks();
 }
 
+void NodePool::Reserve(size_t bytes) {
+  bytes = RoundUp(bytes);
+  if (bump_left_ >= bytes) return;
+  chunks_.push_back(std::make_unique_for_overwrite<std::byte[]>(bytes));
+  bump_ = chunks_.back().get();
+  bump_left_ = bytes;
+  reserved_bytes_ += bytes;
+}
+
 void NodePool::ReleaseChunks() {
   free_.fill(nullptr);
   chunks_.clear();

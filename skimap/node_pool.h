@@ -36,6 +36,8 @@ class NodePool {
   void* Allocate(size_t bytes);
   // Returns a block from Allocate(bytes) (same `bytes`) to the pool for reuse.
   void Free(void* block, size_t bytes);
+  // Makes the next `bytes` bytes of allocations come from one chunk (for bulk building).
+  void Reserve(size_t bytes);
 
   // Bytes this pool holds from the system: chunks (used or free) plus large blocks.
   size_t BytesReserved() const { return reserved_bytes_; }

@@ -117,6 +117,50 @@ void SkiMap<V>::Clear() {
 }
 
 template <Voxel V>
+void SkiMap<V>::Compact() {
+  WriterLock lock(&writer_mu_);
+  std::vector<std::pair<int32_t, Column*>> columns;
+  {
+    ReaderLock x_lock(&x_mu_);
+    for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
+      columns.emplace_back(xn->key, xn->value.get());
+    }
+  }
+  for (auto [x, old] : columns) {
+    std::unique_ptr<Column> fresh = CopyColumn(*old, ColumnOptions(x));
+    WriterLock x_lock(&x_mu_);  // no reader is inside any column while we hold this
+    std::swap(*xs_.Find(x), fresh);
+  }  // `fresh` now holds the old column: destroyed here, outside the lock
+}
+
+template <Voxel V>
+SkipListOptions SkiMap<V>::ColumnOptions(int32_t x) const {
+  SkipListOptions lists = options_.lists;
+  lists.seed = internal::MixSeed(lists.seed, x, INT32_MIN);
+  return lists;
+}
+
+template <Voxel V>
+std::unique_ptr<typename SkiMap<V>::Column> SkiMap<V>::CopyColumn(
+    const Column& old, const SkipListOptions& options) ABSL_NO_THREAD_SAFETY_ANALYSIS {
+  // `fresh` is not shared yet: no lock needed on it.
+  auto fresh = std::make_unique<Column>(options);
+  ReaderLock lock(&old.mu);
+  fresh->arena.pool().Reserve(old.arena.pool().BytesInUse() + old.arena.pool().BytesInUse() / 8);
+  typename Column::YList::Finger yf;
+  for (auto* yn = old.ys.First(); yn != nullptr; yn = yn->next[0]) {
+    bool inserted = false;
+    auto* y = fresh->ys.FindOrInsert(fresh->arena, yf, yn->key, &inserted);
+    typename ZList::Finger zf;
+    for (const ZNode* zn = yn->value.First(); zn != nullptr; zn = zn->next[0]) {
+      y->value.FindOrInsert(fresh->arena, zf, zn->key, &inserted)->value = zn->value;
+    }
+  }
+  fresh->heap_bytes = old.heap_bytes;
+  return fresh;
+}
+
+template <Voxel V>
 WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n, bool integrate) {
   std::vector<Run> runs;
   for (size_t i = 0; i < n;) {
@@ -138,9 +182,7 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
     WriterLock lock(&x_mu_);
     for (Run& r : runs) {
       if (r.column != nullptr) continue;
-      SkipListOptions lists = options_.lists;
-      lists.seed = internal::MixSeed(lists.seed, r.x, INT32_MIN);
-      auto column = std::make_unique<Column>(lists);
+      auto column = std::make_unique<Column>(ColumnOptions(r.x));
       r.column = column.get();
       xs_.Insert(r.x, std::move(column));
     }

@@ -69,6 +69,7 @@ TEST(SkiMapConcurrencyTest, ReadersSeeWholeColumnsWhileOneWriterWrites) {
   for (int i = 0; i < 150; ++i) {
     const WriteStats in = map.Integrate(slab);
     ASSERT_EQ(in.voxels_created, slab.size());
+    if (i % 25 == 0) map.Compact();
     const WriteStats out = map.Deintegrate(slab);
     ASSERT_EQ(out.voxels_removed, slab.size());
   }

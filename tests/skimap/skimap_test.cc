@@ -230,6 +230,35 @@ TEST(SkiMapTest, MultiLabelVoxelsFuseAndEmptyOut) {
   EXPECT_TRUE(map.empty());
 }
 
+TEST(SkiMapTest, CompactKeepsContentAndQueries) {
+  SkiMap<MultiLabelVoxel> map({.resolution = 0.05});
+  std::mt19937 rng(21);
+  std::uniform_int_distribution<int> c(-30, 30);
+  // Many small writes and removals scatter the nodes.
+  for (int i = 0; i < 20000; ++i) {
+    const VoxelKey k{c(rng), c(rng), c(rng) / 4};
+    if (rng() % 4 == 0) {
+      map.DeintegrateKey(k, MultiLabelVoxel(k.x & 3));
+    } else {
+      map.IntegrateKey(k, MultiLabelVoxel(k.x & 3));
+    }
+  }
+  std::vector<std::pair<VoxelKey, MultiLabelVoxel>> before, after;
+  map.ForEach([&](const VoxelKey& k, const MultiLabelVoxel& v) { before.emplace_back(k, v); });
+  const size_t bytes_before = map.MemoryUsage();
+  map.Compact();
+  map.ForEach([&](const VoxelKey& k, const MultiLabelVoxel& v) { after.emplace_back(k, v); });
+  EXPECT_EQ(before, after);
+  EXPECT_EQ(map.size(), before.size());
+  EXPECT_LE(map.MemoryUsage(), bytes_before);
+  size_t hits = 0;
+  map.RadiusSearch({0, 0, 0}, 0.5, [&](const VoxelKey&, const MultiLabelVoxel&) { ++hits; });
+  EXPECT_GT(hits, 0u);
+  // The map stays writable: everything can still be removed.
+  for (auto& [k, v] : after) map.DeintegrateKey(k, v);
+  EXPECT_TRUE(map.empty());
+}
+
 TEST(SkiMapTest, ClearRemovesEverything) {
   SkiMap<WeightVoxel> map({.resolution = 0.1});
   const size_t empty_bytes = map.MemoryUsage();
