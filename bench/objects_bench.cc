@@ -40,6 +40,7 @@ struct Args {
   double bandwidth = 0, verify = 0;  // 0: the detector's default
   std::string db_dir = "/tmp";
   bool memory = true;
+  int memory_object = 0;  // 0: the first object
 };
 
 double Seconds(std::chrono::steady_clock::time_point t0) {
@@ -80,6 +81,8 @@ bool ParseArgs(int argc, char** argv, Args* a) {
       if (!absl::SimpleAtod(v, &a->verify)) return false;
     } else if (k == "--db-dir" && next()) {
       a->db_dir = v;
+    } else if (k == "--memory-object" && next()) {
+      if (!absl::SimpleAtoi(v, &a->memory_object)) return false;
     } else if (k == "--no-memory") {
       a->memory = false;
     } else {
@@ -140,10 +143,10 @@ void MemoryTable(const Args& a, const std::string& detector, int obj_id) {
 int main(int argc, char** argv) {
   Args a;
   if (!ParseArgs(argc, argv, &a)) {
-    std::cerr
-        << "usage: objects_bench --data DIR [--detectors ORB,SIFT] [--k 50,100,200,400]\n"
-           "  [--holdout 4] [--trees 24] [--depth 24] [--threads 2] [--max-features 1000]\n"
-           "  [--resolution 0.01] [--bandwidth B] [--verify T] [--db-dir /tmp] [--no-memory]\n";
+    std::cerr << "usage: objects_bench --data DIR [--detectors ORB,SIFT] [--k 50,100,200,400]\n"
+                 "  [--holdout 4] [--trees 24] [--depth 24] [--threads 2] [--max-features 1000]\n"
+                 "  [--resolution 0.01] [--bandwidth B] [--verify T] [--db-dir /tmp] "
+                 "[--no-memory]\n  [--memory-object ID]\n";
     return 2;
   }
   absl::StatusOr<std::vector<std::pair<int, std::string>>> objects = ListTrainingObjects(a.data);
@@ -247,7 +250,9 @@ int main(int argc, char** argv) {
       }
       std::printf("\n");
     }
-    if (a.memory && !objects->empty()) MemoryTable(a, detector, objects->front().first);
+    if (a.memory && !objects->empty()) {
+      MemoryTable(a, detector, a.memory_object > 0 ? a.memory_object : objects->front().first);
+    }
     std::fflush(stdout);
   }
   return 0;

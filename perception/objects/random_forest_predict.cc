@@ -1,0 +1,130 @@
+// RandomForest prediction, memory accounting and serialization.
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+#include "perception/objects/random_forest.h"
+#include "skimap/encoding.h"
+
+namespace skimap::objects {
+namespace {
+
+constexpr char kForestMagic[4] = {'S', 'K', 'R', 'F'};
+constexpr uint32_t kForestVersion = 1;
+
+}  // namespace
+
+void RandomForest::Predict(const float* x, int top_n, std::vector<ClassScore>* out) const {
+  out->clear();
+  if (roots_.empty() || top_n <= 0) return;
+  // Leaf entries of all trees, merged by class (trees x leaf_classes entries at most).
+  thread_local std::vector<LeafEntry> hits;
+  hits.clear();
+  for (uint32_t root : roots_) {
+    const Node* n = &nodes_[root];
+    while (n->feature >= 0) n = &nodes_[x[n->feature] < n->threshold ? n->b : n->a];
+    hits.insert(hits.end(), leaves_.begin() + n->a, leaves_.begin() + n->a + n->b);
+  }
+  std::sort(hits.begin(), hits.end(),
+            [](const LeafEntry& a, const LeafEntry& b) { return a.cls < b.cls; });
+  const float inv_trees = 1.0f / static_cast<float>(roots_.size());
+  for (size_t i = 0; i < hits.size();) {
+    float sum = 0;
+    const uint32_t c = hits[i].cls;
+    for (; i < hits.size() && hits[i].cls == c; ++i) sum += hits[i].fraction;
+    out->push_back({c, sum * inv_trees});
+  }
+  auto better = [](const ClassScore& a, const ClassScore& b) {
+    return a.confidence != b.confidence ? a.confidence > b.confidence : a.cls < b.cls;
+  };
+  const size_t keep = std::min<size_t>(out->size(), static_cast<size_t>(top_n));
+  std::partial_sort(out->begin(), out->begin() + keep, out->end(), better);
+  out->resize(keep);
+}
+
+size_t RandomForest::MemoryBytes() const {
+  return nodes_.size() * sizeof(Node) + leaves_.size() * sizeof(LeafEntry) +
+         roots_.size() * sizeof(uint32_t);
+}
+
+std::string RandomForest::Serialize() const {
+  std::string out;
+  Encoder e(&out);
+  e.Bytes(std::string_view(kForestMagic, 4));
+  e.U32(kForestVersion);
+  e.U32(static_cast<uint32_t>(dims_));
+  e.U32(num_classes_);
+  e.U32(static_cast<uint32_t>(roots_.size()));
+  e.U64(nodes_.size());
+  e.U64(leaves_.size());
+  for (uint32_t r : roots_) e.U32(r);
+  for (const Node& n : nodes_) {
+    e.I32(n.feature);
+    e.F32(n.threshold);
+    e.U32(n.a);
+    e.U32(n.b);
+  }
+  for (const LeafEntry& l : leaves_) {
+    e.U32(l.cls);
+    e.F32(l.fraction);
+  }
+  e.U32(Crc32c(out));
+  return out;
+}
+
+absl::StatusOr<RandomForest> RandomForest::Deserialize(std::string_view bytes) {
+  if (bytes.size() >= 4 && bytes.substr(0, 4) != std::string_view(kForestMagic, 4)) {
+    return absl::InvalidArgumentError("forest blob: bad magic");
+  }
+  if (bytes.size() < 4 + 4 * 4 + 16 + 4) return absl::DataLossError("forest blob: truncated");
+  const std::string_view body = bytes.substr(0, bytes.size() - 4);
+  Decoder crc_in(bytes.substr(bytes.size() - 4));
+  uint32_t crc = 0;
+  (void)crc_in.U32(&crc);
+  if (Crc32c(body) != crc) return absl::DataLossError("forest blob: checksum mismatch");
+  Decoder d(body.substr(4));
+  uint32_t version = 0, dims = 0, classes = 0, trees = 0;
+  uint64_t nodes = 0, leaves = 0;
+  if (!d.U32(&version) || !d.U32(&dims) || !d.U32(&classes) || !d.U32(&trees) || !d.U64(&nodes) ||
+      !d.U64(&leaves)) {
+    return absl::DataLossError("forest blob: truncated header");
+  }
+  if (version != kForestVersion) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("forest blob: version ", version, " unsupported (want ", kForestVersion, ")"));
+  }
+  if (d.remaining() != trees * 4ull + nodes * 16 + leaves * 8) {
+    return absl::DataLossError("forest blob: size does not match its counts");
+  }
+  RandomForest f;
+  f.dims_ = static_cast<int>(dims);
+  f.num_classes_ = classes;
+  f.roots_.resize(trees);
+  f.nodes_.resize(nodes);
+  f.leaves_.resize(leaves);
+  for (uint32_t& r : f.roots_) (void)d.U32(&r);
+  for (Node& n : f.nodes_)
+    (void)(d.I32(&n.feature) && d.F32(&n.threshold) && d.U32(&n.a) && d.U32(&n.b));
+  for (LeafEntry& l : f.leaves_) (void)(d.U32(&l.cls) && d.F32(&l.fraction));
+  // Validate every index so that Predict can trust the model.
+  for (uint32_t r : f.roots_) {
+    if (r >= nodes) return absl::InvalidArgumentError("forest blob: root out of range");
+  }
+  for (size_t i = 0; i < f.nodes_.size(); ++i) {
+    const Node& n = f.nodes_[i];
+    if (n.feature >= 0) {
+      // Children come after their parent (depth-first layout): no cycles.
+      if (n.feature >= static_cast<int32_t>(dims) || n.a <= i || n.b <= i || n.a >= nodes ||
+          n.b >= nodes) {
+        return absl::InvalidArgumentError(absl::StrCat("forest blob: node ", i, " malformed"));
+      }
+    } else if (n.feature != -1 || uint64_t{n.a} + n.b > leaves) {
+      return absl::InvalidArgumentError(absl::StrCat("forest blob: leaf ", i, " malformed"));
+    }
+  }
+  for (const LeafEntry& l : f.leaves_) {
+    if (l.cls >= classes) return absl::InvalidArgumentError("forest blob: class out of range");
+  }
+  return f;
+}
+
+}  // namespace skimap::objects

@@ -1,0 +1,214 @@
+// The offline pipeline on the sim `mini` objects (generated at test time): held-out views
+// are classified to the right object, classes map back to the right object and voxel,
+// the Fig. 4 memory behaviour, the RGB volume, and SQLite persistence.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <opencv2/imgproc.hpp>
+
+#include "dataset/reader.h"
+#include "perception/objects/database_io.h"
+#include "perception/objects/evaluation.h"
+#include "perception/objects/training.h"
+#include "skimap/serialization.h"
+#include "tests/objects/sim_data.h"
+
+namespace skimap::objects {
+namespace {
+namespace fs = std::filesystem;
+using testing::HeldOutView;
+using testing::MiniDataset;
+using testing::TrainView;
+
+ObjectDatabaseParams Params(const std::string& detector) {
+  ObjectDatabaseParams p;
+  p.features.detector = detector;
+  p.classes_per_object = 100;
+  p.forest.trees = 24;
+  p.forest.max_depth = 24;
+  return p;
+}
+
+// One trained ORB database per test process.
+const ObjectDatabase& OrbDatabase() {
+  static const ObjectDatabase* db = [] {
+    absl::StatusOr<ObjectDatabase> d =
+        TrainObjectDatabase(MiniDataset(), Params("ORB"), {.use_frame = TrainView});
+    EXPECT_TRUE(d.ok()) << d.status();
+    return d.ok() ? new ObjectDatabase(*std::move(d)) : new ObjectDatabase();
+  }();
+  return *db;
+}
+
+TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
+  for (const char* detector : {"ORB", "SIFT"}) {
+    absl::StatusOr<ObjectDatabase> db =
+        std::string(detector) == "ORB"
+            ? absl::StatusOr<ObjectDatabase>(OrbDatabase())
+            : TrainObjectDatabase(MiniDataset(), Params(detector), {.use_frame = TrainView});
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_EQ(db->objects().size(), 3u);
+    absl::StatusOr<std::vector<ObjectAccuracy>> acc =
+        EvaluateViews(*db, MiniDataset(), {.use_frame = HeldOutView});
+    ASSERT_TRUE(acc.ok()) << acc.status();
+    const ObjectAccuracy total = Total(*acc);
+    std::printf("[ measured ] %s: feature top-1 %.3f, verified precision %.3f, views %d/%d\n",
+                detector, total.Top1Rate(), total.VerifiedPrecision(), total.views_correct,
+                total.views);
+    for (const ObjectAccuracy& a : *acc) {
+      EXPECT_EQ(a.views, 6) << detector << " object " << a.obj_id;
+      EXPECT_GT(a.features, 0);
+      // Per object, most held-out views are recognised (measured: 6/6 for every object).
+      EXPECT_GE(a.views_correct, 5) << detector << " object " << a.obj_id;
+    }
+    // Measured (3 objects, chance = 1/3): feature top-1 ORB 0.687, SIFT 0.732; verified
+    // precision ORB 0.745, SIFT 0.967; views 18/18 for both.
+    EXPECT_GT(total.Top1Rate(), 0.55) << detector;
+    EXPECT_GT(total.VerifiedPrecision(), 0.6) << detector;
+  }
+}
+
+TEST(ObjectPipelineTest, ClassesMapBackToTheRightObjectAndVoxel) {
+  const ObjectDatabase& db = OrbDatabase();
+  const ClassStack& s = db.stack();
+  ASSERT_EQ(s.k(), 100);
+  for (uint32_t c = 0; c < s.num_classes(); ++c) {
+    if (!s.Valid(c)) continue;
+    const StackedVoxel v = s.VoxelOf(c);
+    EXPECT_EQ(s.ClassOf(v.object_index, v.rank), c);
+    EXPECT_EQ(s.ObjectOf(c), v.object_index);
+    EXPECT_EQ(&db.VoxelOfClass(c), &db.objects()[v.object_index].voxels[v.rank]);
+  }
+  // Stacking keeps the voxels with most evidence: ranks are in evidence order.
+  for (const ObjectModel& o : db.objects()) {
+    for (size_t j = 1; j < o.voxels.size(); ++j)
+      EXPECT_GE(o.voxels[j - 1].evidence, o.voxels[j].evidence);
+  }
+  // Geometry: verified predictions on held-out views point at the voxel where the feature
+  // really is (back-projected with the ground-truth pose), within a few voxels.
+  absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(MiniDataset() + "/train/000002");
+  ASSERT_TRUE(seq.ok()) << seq.status();
+  auto extractor = FeatureExtractor::Create(db.params().features);
+  ASSERT_TRUE(extractor.ok());
+  const ObjectModel& cereal = db.objects()[1];
+  std::vector<double> errors;
+  double chance = 0;  // expected hit rate of a random stacked voxel of the object
+  std::vector<float> scratch;
+  Prediction p;
+  for (const dataset::Frame& f : seq->frames) {
+    if (!HeldOutView(2, f.id)) continue;
+    auto img = dataset::LoadFrameImages(f, true);
+    ASSERT_TRUE(img.ok());
+    cv::Mat mask;
+    cv::erode(img->masks[0], mask, cv::Mat(), {-1, -1}, 2);
+    auto feats = (*extractor)->Extract(img->rgb, mask);
+    ASSERT_TRUE(feats.ok());
+    const Eigen::Isometry3d T_c2m = f.objects[0].T_m2c.inverse();
+    for (size_t i = 0; i < feats->keypoints.size(); ++i) {
+      const cv::Point2f& pt = feats->keypoints[i].pt;
+      const double z = img->depth.at<uint16_t>(cvRound(pt.y), cvRound(pt.x)) * f.depth_scale * 1e-3;
+      if (z <= 0 || !db.Recognize(feats->descriptors.Row(i), &scratch, &p) || p.obj_id != 2)
+        continue;
+      const Eigen::Vector3d truth =
+          T_c2m * Eigen::Vector3d((pt.x - f.K.cx) * z / f.K.fx, (pt.y - f.K.cy) * z / f.K.fy, z);
+      errors.push_back((p.point - truth).norm());
+      int near = 0;
+      for (int j = 0; j < db.stack().used(1); ++j) {
+        near += (VoxelCenter(cereal.voxels[j].key, 0.01) - truth).norm() < 0.02;
+      }
+      chance += double(near) / db.stack().used(1);
+    }
+  }
+  ASSERT_GT(errors.size(), 50u);
+  const double hits =
+      std::count_if(errors.begin(), errors.end(), [](double e) { return e < 0.02; });
+  const double rate = hits / errors.size();
+  chance /= errors.size();
+  // Measured: 36% of verified predictions land within 2 cm of the true point (the cereal
+  // box repeats its texture on opposite faces, which takes most of the rest), against 3.7%
+  // for a random stacked voxel of the object.
+  std::printf("[ measured ] within 2 cm: %.3f, chance %.3f (%zu predictions)\n", rate, chance,
+              errors.size());
+  EXPECT_GT(rate, 0.25);
+  EXPECT_GT(rate, 5 * chance) << "chance " << chance;
+}
+
+TEST(ObjectPipelineTest, CentroidMemoryGrowsSlowerThanRawDescriptors) {
+  // Paper Fig. 4: adding a second orbit (variant) adds descriptors, but mean shift keeps
+  // the stored centroids from growing as fast.
+  absl::StatusOr<ObjectDatabaseParams> p = ResolveParams(Params("ORB"));
+  ASSERT_TRUE(p.ok());
+  const std::string dir = MiniDataset() + "/train/000002";
+  auto one = TrainObject(dir, 2, "", *p, {.use_frame = [](int, int id) { return id < 12; }});
+  auto two = TrainObject(dir, 2, "", *p, {});
+  ASSERT_TRUE(one.ok() && two.ok());
+  const ObjectTrainingStats &a = one->model.stats, &b = two->model.stats;
+  EXPECT_EQ(b.frames, 2 * a.frames);
+  const double raw_growth = double(b.raw_descriptor_bytes) / a.raw_descriptor_bytes;
+  const double centroid_growth = double(b.centroid_bytes) / a.centroid_bytes;
+  EXPECT_GT(raw_growth, 1.6);
+  // Measured on mini (12 views per orbit, 30 degrees apart): centroids take 0.55 of the raw
+  // bytes after one variant and 0.54 after two; they never grow faster than the evidence.
+  std::printf("[ measured ] centroid/raw bytes: %.3f (1 variant), %.3f (2 variants)\n",
+              double(a.centroid_bytes) / a.raw_descriptor_bytes,
+              double(b.centroid_bytes) / b.raw_descriptor_bytes);
+  EXPECT_LE(centroid_growth, raw_growth);
+  EXPECT_LT(double(a.centroid_bytes) / a.raw_descriptor_bytes, 0.7);
+  EXPECT_LT(double(b.centroid_bytes) / b.raw_descriptor_bytes, 0.7);
+}
+
+TEST(ObjectPipelineTest, RgbVolumeHoldsTheObject) {
+  const ObjectModel& o = OrbDatabase().objects().at(0);  // boxgreen: a textured 5 cm cube
+  auto map = DeserializeMap<RGBWeightedVoxel>(o.rgb_volume, {});
+  ASSERT_TRUE(map.ok()) << map.status();
+  ASSERT_GT((*map)->size(), 50u);
+  cv::Scalar mean(0, 0, 0);
+  double weight = 0;
+  (*map)->ForEach([&](const VoxelKey& k, const RGBWeightedVoxel& v) {
+    // Model frame, origin at the cube centre: every voxel within the cube (+1.5 voxels).
+    EXPECT_LT(VoxelCenter(k, 0.01).cwiseAbs().maxCoeff(), 0.025 + 0.015);
+    mean += cv::Scalar(v.b, v.g, v.r);
+    weight += v.weight;
+  });
+  // Its colour is the colour of the object's pixels (first training view).
+  absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(MiniDataset() + "/train/000001");
+  ASSERT_TRUE(seq.ok());
+  auto img = dataset::LoadFrameImages(seq->frames[0], true);
+  ASSERT_TRUE(img.ok());
+  const cv::Scalar pixels = cv::mean(img->rgb, img->masks[0]);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c] / weight, pixels[c], 30) << "channel " << c;
+}
+
+TEST(ObjectPipelineTest, DatabaseRoundTripsThroughSqlite) {
+  const ObjectDatabase& db = OrbDatabase();
+  const std::string path = testing::TempDir() + "/skimap.db";
+  ASSERT_TRUE(SaveObjectDatabase(db, path).ok());
+  absl::StatusOr<ObjectDatabase> back = LoadObjectDatabase(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_TRUE(*back == db);
+  // Identical answers for the same descriptors.
+  std::vector<float> s1, s2;
+  std::vector<Prediction> a, b;
+  const VoxelModel& v = db.objects()[1].voxels[0];
+  for (size_t i = 0; i < v.centroids.rows(); ++i) {
+    db.Classify(v.centroids.Row(i), &s1, &a);
+    back->Classify(v.centroids.Row(i), &s2, &b);
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t k = 0; k < a.size(); ++k) {
+      EXPECT_EQ(a[k].cls, b[k].cls);
+      EXPECT_EQ(a[k].confidence, b[k].confidence);
+    }
+  }
+  // Saving again replaces (not appends).
+  ASSERT_TRUE(SaveObjectDatabase(*back, path).ok());
+  absl::StatusOr<ObjectDatabase> again = LoadObjectDatabase(path);
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(*again == db);
+  EXPECT_EQ(LoadObjectDatabase(testing::TempDir() + "/empty.db").status().code(),
+            absl::StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace skimap::objects
