@@ -9,6 +9,8 @@
 //   build/bench/objects_bench --data /tmp/sk --detectors ORB,SIFT --k 50,100,200,400
 //
 // A program, not a test: prints markdown tables on stdout, progress on stderr.
+#include <sys/resource.h>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -16,6 +18,7 @@
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <opencv2/ml.hpp>
 #include <string>
 #include <vector>
 
@@ -41,6 +44,7 @@ struct Args {
   std::string db_dir = "/tmp";
   bool memory = true;
   int memory_object = 0;  // 0: the first object
+  bool rtrees = false;    // also train cv::ml::RTrees on the same samples, for comparison
 };
 
 double Seconds(std::chrono::steady_clock::time_point t0) {
@@ -83,6 +87,8 @@ bool ParseArgs(int argc, char** argv, Args* a) {
       a->db_dir = v;
     } else if (k == "--memory-object" && next()) {
       if (!absl::SimpleAtoi(v, &a->memory_object)) return false;
+    } else if (k == "--rtrees") {
+      a->rtrees = true;
     } else if (k == "--no-memory") {
       a->memory = false;
     } else {
@@ -138,6 +144,50 @@ void MemoryTable(const Args& a, const std::string& detector, int obj_id) {
   }
 }
 
+double PeakRssMb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0;
+}
+
+// cv::ml::RTrees (trees x depth as ours) on the same stacked samples; prints time and the
+// peak RSS growth. Run it in a process of its own for a clean peak.
+void RTreesRow(const Args& a, const std::vector<TrainedObject>& trained, int k) {
+  std::vector<float> x;
+  std::vector<int> y;
+  int dims = 0;
+  for (size_t o = 0; o < trained.size(); ++o) {
+    const int used = std::min<int>(k, static_cast<int>(trained[o].raw.size()));
+    for (int j = 0; j < used; ++j) {
+      const DescriptorMatrix& m = trained[o].raw[j];
+      dims = m.layout().FeatureDims();
+      std::vector<float> f(dims);
+      for (size_t i = 0; i < m.rows(); ++i) {
+        ToFeatures(m.layout(), m.Row(i), f);
+        x.insert(x.end(), f.begin(), f.end());
+        y.push_back(static_cast<int>(o) * k + j);
+      }
+    }
+  }
+  const double rss0 = PeakRssMb();
+  cv::Mat X(static_cast<int>(y.size()), dims, CV_32F, x.data()),
+      Y(static_cast<int>(y.size()), 1, CV_32S, y.data());
+  cv::Ptr<cv::ml::RTrees> rt = cv::ml::RTrees::create();
+  rt->setMaxDepth(a.depth);
+  rt->setMinSampleCount(4);
+  rt->setTermCriteria({cv::TermCriteria::MAX_ITER, a.trees, 0});
+  const auto t0 = std::chrono::steady_clock::now();
+  rt->train(cv::ml::TrainData::create(X, cv::ml::ROW_SAMPLE, Y));
+  const double train_s = Seconds(t0);
+  const auto t1 = std::chrono::steady_clock::now();
+  const int n = std::min(2000, X.rows);
+  for (int i = 0; i < n; ++i) rt->predict(X.row(i));
+  std::printf(
+      "| RTrees k=%d | %zu samples | train %.1f s | peak RSS +%.0f MB | predict %.1f us |\n", k,
+      y.size(), train_s, PeakRssMb() - rss0, 1e6 * Seconds(t1) / n);
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -146,7 +196,7 @@ int main(int argc, char** argv) {
     std::cerr << "usage: objects_bench --data DIR [--detectors ORB,SIFT] [--k 50,100,200,400]\n"
                  "  [--holdout 4] [--trees 24] [--depth 24] [--threads 2] [--max-features 1000]\n"
                  "  [--resolution 0.01] [--bandwidth B] [--verify T] [--db-dir /tmp] "
-                 "[--no-memory]\n  [--memory-object ID]\n";
+                 "[--no-memory]\n  [--memory-object ID] [--rtrees]\n";
     return 2;
   }
   absl::StatusOr<std::vector<std::pair<int, std::string>>> objects = ListTrainingObjects(a.data);

@@ -11,7 +11,9 @@ namespace skimap::bench {
 namespace {
 
 // SkiMap<WeightVoxel>; `kWorkers` threads in the pool besides the caller (0 = no pool).
-template <int kWorkers>
+// kCompact: query maps are compacted (SkiMap::Compact) once built, as a server does when a
+// map is idle.
+template <int kWorkers, bool kCompact = false>
 class SkiMapAdapter {
  public:
   static constexpr bool kStoresPoints = false;
@@ -72,7 +74,10 @@ class SkiMapAdapter {
   }
   size_t Voxels() const { return map_->size(); }
   size_t LibBytes() const { return map_->MemoryUsage(); }
-  void ReleaseScratch() { batch_ = {}; }
+  void ReleaseScratch() {
+    batch_ = {};
+    if constexpr (kCompact) map_->Compact();
+  }
 
  private:
   static ThreadPool* Pool() {
@@ -94,6 +99,9 @@ const bool registered = [] {
   RegisterRadius<SkiMapAdapter<0>>("SkiMap");
   RegisterMapQueries<SkiMapAdapter<0>>("SkiMap");
   RegisterMemory<SkiMapAdapter<0>>("SkiMap");
+  RegisterRadius<SkiMapAdapter<0, true>>("SkiMapCompact");
+  RegisterMapQueries<SkiMapAdapter<0, true>>("SkiMapCompact");
+  RegisterMemory<SkiMapAdapter<0, true>>("SkiMapCompact");
   return true;
 }();
 

@@ -104,11 +104,12 @@ class Report:
         return out
 
     def radius_table(self):
-        peers = ["SkiMap", "OctoMap", "PclOctree", "Nanoflann", "OpenVdb"]
+        peers = ["SkiMap", "SkiMapCompact", "OctoMap", "PclOctree", "Nanoflann", "OpenVdb"]
         out = ["### Radius search (µs per query; lower is better)", "",
                "| workload | radius | hits | " + " | ".join(peers) +
-               " | OctoMap / SkiMap | PCL / SkiMap | nanoflann / SkiMap | OpenVdb / SkiMap |",
-               "|---|---|---|" + "---|" * (len(peers) + 4)]
+               " | OctoMap / SkiMap | PCL / SkiMap | nanoflann / SkiMap | OpenVdb / SkiMap"
+               " | PCL / SkiMapCompact | nanoflann / SkiMapCompact |",
+               "|---|---|---|" + "---|" * (len(peers) + 6)]
         for wl, label, radii in (("Uniform", "1 M uniform, 1 cm", (5, 20, 50)),
                                  ("Surface", "room surface map, 1 cm", (2, 10, 20, 50, 100))):
             for r in radii:
@@ -118,14 +119,16 @@ class Report:
                 v = {p: None if b is None else ns(b) / 1e3 for p, b in bs.items()}
                 hits = bs["SkiMap"]["hits"]
                 rs = {p: ratio(v[p], v["SkiMap"]) for p in peers}
+                rc = {p: ratio(v[p], v["SkiMapCompact"]) for p in peers}
                 out.append(f"| {label} | {r} cm | {hits:.0f} | " +
                            " | ".join(fmt(v[p]) for p in peers) + " | " +
-                           " | ".join(fmt_ratio(rs[p]) for p in peers[1:]) + " |")
+                           " | ".join(fmt_ratio(rs[p]) for p in peers[2:]) + " | " +
+                           f"{fmt_ratio(rc['PclOctree'])} | {fmt_ratio(rc['Nanoflann'])} |")
                 if hits >= 1000:
-                    self.floor(f"radius {label} {r} cm ({hits:.0f} hits): OctoMap / SkiMap",
-                               rs["OctoMap"], 1)
-                    self.floor(f"radius {label} {r} cm ({hits:.0f} hits): PCL octree / SkiMap",
-                               rs["PclOctree"], 1)
+                    for base, rr in (("SkiMap", rs), ("SkiMapCompact", rc)):
+                        for peer, pname in (("OctoMap", "OctoMap"), ("PclOctree", "PCL octree")):
+                            self.floor(f"radius {label} {r} cm ({hits:.0f} hits): "
+                                       f"{pname} / {base}", rr[peer], 1)
         reb = self.get("RadiusSurfaceRebuild", "Nanoflann", 50)
         if reb is not None:
             out += ["", f"nanoflann rebuild over the {reb['points']:.0f}-voxel surface map + one "
@@ -135,7 +138,7 @@ class Report:
         return out
 
     def query_table(self):
-        peers = ["SkiMap", "OctoMap", "OpenVdb"]
+        peers = ["SkiMap", "SkiMapCompact", "OctoMap", "OpenVdb"]
         rows = [("BoxQuery", 50, "box 0.5 × 0.5 × 3.2 m", 1e3, "µs"),
                 ("BoxQuery", 200, "box 2 × 2 × 3.2 m", 1e3, "µs"),
                 ("VisitAll", None, "visit all", 1e6, "ms"),
@@ -144,8 +147,9 @@ class Report:
         big = self.get("VisitAll", "SkiMap")
         size = f"{big['voxels'] / 1e6:.1f} M" if big else "≥ 10 M"
         out = [f"### Queries on the {size}-voxel warehouse map (1 cm; lower is better)", "",
-               "| query | unit | " + " | ".join(peers) + " | OctoMap / SkiMap | OpenVdb / SkiMap |",
-               "|---|---|" + "---|" * (len(peers) + 2)]
+               "| query | unit | " + " | ".join(peers) +
+               " | OctoMap / SkiMap | OpenVdb / SkiMap | OpenVdb / SkiMapCompact |",
+               "|---|---|" + "---|" * (len(peers) + 3)]
         for op, arg, label, div, unit in rows:
             v = {p: (lambda b: None if b is None else ns(b) / div)(self.get(op, p, arg))
                  for p in peers}
@@ -153,12 +157,13 @@ class Report:
                 continue
             out.append(f"| {label} | {unit} | " + " | ".join(fmt(v[p]) for p in peers) +
                        f" | {fmt_ratio(ratio(v['OctoMap'], v['SkiMap']))}"
-                       f" | {fmt_ratio(ratio(v['OpenVdb'], v['SkiMap']))} |")
+                       f" | {fmt_ratio(ratio(v['OpenVdb'], v['SkiMap']))}"
+                       f" | {fmt_ratio(ratio(v['OpenVdb'], v['SkiMapCompact']))} |")
         out.append("")
         return out
 
     def memory_table(self):
-        peers = ["SkiMap", "OctoMap", "OpenVdb", "PclOctree", "Nanoflann"]
+        peers = ["SkiMap", "SkiMapCompact", "OctoMap", "OpenVdb", "PclOctree", "Nanoflann"]
         out = ["### Memory (measured heap bytes per voxel; lower is better)", "",
                "| map | res | voxels | " + " | ".join(peers) +
                " | SkiMap::MemoryUsage | OctoMap memoryUsage() | OctoMap / SkiMap |",
