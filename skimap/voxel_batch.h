@@ -5,13 +5,14 @@
 //   batch.Finalize();              // sort by key, merge duplicates (data summed with +=)
 //   map.Integrate(batch);          // one tree update per distinct voxel
 //
-// Add() merges a point into the previous entry when both fall in the same voxel (image
-// rows are coherent, so this removes most duplicates for free). Finalize() sorts with an
-// LSD radix sort on the keys relative to the batch's bounding box (O(n), 11-bit digits)
-// and merges equal keys. Points without a key (outside the key range, NaN) are counted
-// in rejected() and dropped.
+// AddPoints() merges a point into the previous entry when both fall in the same voxel
+// (image rows are coherent, so this removes most duplicates for free). Finalize() sorts
+// with an LSD radix sort on the keys relative to the batch's bounding box (O(n)) and merges
+// equal keys. Points without a key (outside the key range, NaN) are counted in rejected()
+// and dropped. Given a ThreadPool, both split the work over its threads (AddPoints by
+// point ranges, Finalize by x ranges of the keys).
 //
-// Thread safety: a batch is a single-threaded value.
+// Thread safety: a batch is a single-threaded value (it uses the pool's threads itself).
 #ifndef SKIMAP_VOXEL_BATCH_H_
 #define SKIMAP_VOXEL_BATCH_H_
 
@@ -25,6 +26,8 @@
 #include <vector>
 
 #include "skimap/grid.h"
+#include "skimap/key_sort.h"
+#include "skimap/thread_pool.h"
 #include "skimap/voxel.h"
 
 namespace skimap {
@@ -62,7 +65,7 @@ class VoxelBatch {
   }
   // Makes room for n items without reallocation.
   void Reserve(size_t n) {
-    if (storage_.size() < n + 1) storage_.resize(std::max(n + 1, storage_.size() * 2));
+    if (storage_.size() < n) storage_.resize(std::max(n, storage_.size() * 2));
   }
 
   // Adds one observation at world point (x, y, z). Returns false (and counts it as
@@ -79,9 +82,10 @@ class VoxelBatch {
 
   // Adds `count` observations; get(i, Point3* p, V* data) fills point i and returns false
   // to skip it (e.g. a pixel without depth). Points without a key count as rejected.
-  // The hot loop of frame integration: keep `get` cheap and inlinable.
+  // The hot loop of frame integration: keep `get` cheap and inlinable. With a pool, `get`
+  // is called concurrently for different i and must be safe for that.
   template <class Fn>
-  void AddPoints(const Grid& grid, size_t count, Fn&& get);
+  void AddPoints(const Grid& grid, size_t count, Fn&& get, ThreadPool* pool = nullptr);
 
   // REQUIRES: every component of `key` in [kMinKey, kMaxKey].
   void AddKey(const VoxelKey& key, const V& data) {
@@ -92,46 +96,70 @@ class VoxelBatch {
     });
   }
 
-  // Sorts the items by key and merges duplicates. Cheap when already finalized.
-  void Finalize();
+  // Sorts the items by key and merges duplicates, on the pool's threads if given. Cheap
+  // when already finalized.
+  void Finalize(ThreadPool* pool = nullptr);
 
   bool finalized() const { return finalized_; }
   // Items; sorted by key with unique keys once finalized().
-  std::span<const Item> items() const { return {storage_.data() + 1, n_}; }
+  std::span<const Item> items() const { return {storage_.data(), n_}; }
   size_t size() const { return n_; }
   bool empty() const { return n_ == 0; }
   size_t rejected() const { return rejected_; }
 
  private:
-  // storage_[0] is a scratch slot (the pending run before the first item); items are
-  // storage_[1 .. n_]; the rest is room to grow.
-  std::vector<Item> storage_ = std::vector<Item>(1);
+  // Below these sizes the pool is not worth waking up.
+  static constexpr size_t kParallelMinPoints = 1 << 14;
+  static constexpr size_t kParallelMinItems = 1 << 14;
+
+  // Writes the run-merged observations of points [begin, end) to out[0..) and returns how
+  // many; counts rejected points in *rejected.
+  template <class Fn>
+  static size_t AddRange(const Grid& grid, size_t begin, size_t end, Fn& get, Item* out,
+                         size_t* rejected);
+  // Merges the items that `sorted` (sort keys) orders into out[0..); returns how many.
+  static size_t MergeSorted(const Item* items, const uint64_t* sorted, size_t count,
+                            uint64_t index_mask, Item* out);
+
+  std::vector<Item> storage_;  // items are storage_[0 .. n_); the rest is room to grow
   size_t n_ = 0;
   std::vector<uint64_t> sort_a_, sort_b_;  // scratch, kept to avoid reallocation
-  std::vector<uint32_t> counts_;
-  std::vector<Item> merged_ = std::vector<Item>(1);
+  std::vector<Item> merged_;
   size_t rejected_ = 0;
   bool finalized_ = true;
 };
 
 template <Voxel V>
 template <class Fn>
-void VoxelBatch<V>::AddPoints(const Grid& grid, size_t count, Fn&& get) {
-  Reserve(n_ + count);
-  // The run being accumulated (last, acc) lives in registers and is stored at out[n] after
-  // every point; n advances only when the key changes. out[-1] is the scratch slot.
-  Item* out = storage_.data() + 1;
-  constexpr VoxelKey kNoKey{kMaxKey + 1, 0, 0};
-  ptrdiff_t n = static_cast<ptrdiff_t>(n_) - 1;
-  VoxelKey last = n >= 0 ? out[n].key : kNoKey;
-  V acc = n >= 0 ? out[n].data : V{};
-  for (size_t i = 0; i < count; ++i) {
+size_t VoxelBatch<V>::AddRange(const Grid& grid, size_t begin, size_t end, Fn& get, Item* out,
+                               size_t* rejected) {
+  // The first point with a key opens the first run.
+  size_t i = begin;
+  VoxelKey last;
+  V acc;
+  for (;; ++i) {
+    if (i == end) return 0;
+    Point3 p;
+    V d;
+    if (!get(i, &p, &d)) continue;
+    if (!grid.ToKey(p, &last)) {
+      ++*rejected;
+      continue;
+    }
+    acc = std::move(d);
+    ++i;
+    break;
+  }
+  // The open run (last, acc) lives in registers and is stored at out[n] after every point;
+  // n advances only when the key changes.
+  size_t n = 0;
+  for (; i < end; ++i) {
     Point3 p;
     V d;
     if (!get(i, &p, &d)) continue;
     VoxelKey k;
     if (!grid.ToKey(p, &k)) {
-      ++rejected_;
+      ++*rejected;
       continue;
     }
     const bool same = SameKey(k, last);
@@ -151,17 +179,61 @@ void VoxelBatch<V>::AddPoints(const Grid& grid, size_t count, Fn&& get) {
     }
     last = k;
   }
-  if (!SameKey(last, kNoKey)) out[n++] = Item{last, std::move(acc)};
-  if (static_cast<size_t>(n) > n_ && n > 1) finalized_ = false;
-  n_ = n < 0 ? 0 : static_cast<size_t>(n);  // n < 0: nothing was added to an empty batch
+  out[n] = Item{last, std::move(acc)};
+  return n + 1;
 }
 
 template <Voxel V>
-void VoxelBatch<V>::Finalize() {
+template <class Fn>
+void VoxelBatch<V>::AddPoints(const Grid& grid, size_t count, Fn&& get, ThreadPool* pool) {
+  Reserve(n_ + count);
+  Item* out = storage_.data() + n_;
+  size_t added = 0;
+  if (pool == nullptr || pool->workers() == 0 || count < kParallelMinPoints) {
+    added = AddRange(grid, 0, count, get, out, &rejected_);
+  } else {
+    // Piece p writes its runs at out + begin_p (room for every point), then the pieces are
+    // moved together.
+    const size_t pieces = static_cast<size_t>(pool->workers()) + 1;
+    std::vector<size_t> written(pieces), rejected(pieces);
+    pool->ParallelFor(pieces, [&](size_t first, size_t last) {
+      for (size_t p = first; p < last; ++p) {
+        const size_t begin = p * count / pieces, end = (p + 1) * count / pieces;
+        written[p] = AddRange(grid, begin, end, get, out + begin, &rejected[p]);
+      }
+    });
+    for (size_t p = 0; p < pieces; ++p) {
+      const size_t begin = p * count / pieces;
+      if (begin != added) std::move(out + begin, out + begin + written[p], out + added);
+      added += written[p];
+      rejected_ += rejected[p];
+    }
+  }
+  n_ += added;
+  if (added > 0 && n_ > 1) finalized_ = false;
+}
+
+template <Voxel V>
+size_t VoxelBatch<V>::MergeSorted(const Item* items, const uint64_t* sorted, size_t count,
+                                  uint64_t index_mask, Item* out) {
+  size_t m = 0;
+  for (size_t i = 0; i < count; ++i) {
+    const Item& it = items[sorted[i] & index_mask];
+    if (m > 0 && SameKey(out[m - 1].key, it.key)) {
+      out[m - 1].data += it.data;
+    } else {
+      out[m++] = it;
+    }
+  }
+  return m;
+}
+
+template <Voxel V>
+void VoxelBatch<V>::Finalize(ThreadPool* pool) {
   if (finalized_) return;
   finalized_ = true;
   const size_t n = n_;
-  const Item* items = storage_.data() + 1;
+  const Item* items = storage_.data();
   VoxelKey lo = items[0].key, hi = items[0].key;
   for (size_t i = 0; i < n; ++i) {
     const VoxelKey& k = items[i].key;
@@ -174,55 +246,54 @@ void VoxelBatch<V>::Finalize() {
   const int ib = std::bit_width(n - 1);
   const int kb = bx + by + bz;
   sort_a_.resize(n);
-  uint64_t index_mask = ~uint64_t{0};
-  if (kb + ib <= 64) {
-    // Key relative to the box, index in the low bits. LSD radix sort on the key bits only:
-    // stable, so equal keys keep their insertion order. Histograms of all digits are
-    // taken in one sweep.
-    index_mask = ib == 64 ? ~uint64_t{0} : (uint64_t{1} << ib) - 1;
-    constexpr int kMaxDigitBits = 12;
-    const int passes = kb == 0 ? 0 : (kb + kMaxDigitBits - 1) / kMaxDigitBits;
-    const int digit = passes == 0 ? 0 : (kb + passes - 1) / passes;
-    const uint64_t digit_mask = (uint64_t{1} << digit) - 1;
-    std::vector<uint32_t>& count = counts_;
-    count.assign(size_t(passes) << digit, 0);
-    for (size_t i = 0; i < n; ++i) {
-      const VoxelKey& k = items[i].key;
-      const uint64_t rel =
-          (uint64_t(k.x - lo.x) << (by + bz)) | (uint64_t(k.y - lo.y) << bz) | uint64_t(k.z - lo.z);
-      sort_a_[i] = (rel << ib) | i;
-      for (int p = 0; p < passes; ++p)
-        ++count[(size_t(p) << digit) + ((rel >> (p * digit)) & digit_mask)];
-    }
-    sort_b_.resize(n);
-    for (int p = 0; p < passes; ++p) {
-      uint32_t* c = count.data() + (size_t(p) << digit);
-      uint32_t sum = 0;
-      for (size_t d = 0; d <= digit_mask; ++d) sum += std::exchange(c[d], sum);
-      const int shift = ib + p * digit;
-      for (uint64_t v : sort_a_) sort_b_[c[(v >> shift) & digit_mask]++] = v;
-      sort_a_.swap(sort_b_);
-    }
-  } else {
+  sort_b_.resize(n);
+  if (merged_.size() < storage_.size()) merged_.resize(storage_.size());
+  if (kb + ib > 64) {
     // Keys spanning most of the key range: comparison sort on (packed key, index).
     std::vector<std::pair<uint64_t, uint32_t>> order(n);
     for (size_t i = 0; i < n; ++i) order[i] = {PackKey(items[i].key), static_cast<uint32_t>(i)};
     std::sort(order.begin(), order.end());
     for (size_t i = 0; i < n; ++i) sort_a_[i] = order[i].second;
+    n_ = MergeSorted(items, sort_a_.data(), n, ~uint64_t{0}, merged_.data());
+    storage_.swap(merged_);
+    return;
   }
-  if (merged_.size() < storage_.size()) merged_.resize(storage_.size());
-  Item* out = merged_.data() + 1;
-  size_t m = 0;
-  for (uint64_t v : sort_a_) {
-    const Item& it = items[v & index_mask];
-    if (m > 0 && SameKey(out[m - 1].key, it.key)) {
-      out[m - 1].data += it.data;
-    } else {
-      out[m++] = it;
+  // Sort key: voxel key relative to the box (x major), index in the low bits.
+  const uint64_t index_mask = (uint64_t{1} << ib) - 1;
+  for (size_t i = 0; i < n; ++i) {
+    const VoxelKey& k = items[i].key;
+    const uint64_t rel =
+        (uint64_t(k.x - lo.x) << (by + bz)) | (uint64_t(k.y - lo.y) << bz) | uint64_t(k.z - lo.z);
+    sort_a_[i] = (rel << ib) | i;
+  }
+  if (pool == nullptr || pool->workers() == 0 || n < kParallelMinItems || bx == 0) {
+    const uint64_t* sorted = internal::RadixSort(sort_a_.data(), sort_b_.data(), n, ib, kb);
+    n_ = MergeSorted(items, sorted, n, index_mask, merged_.data());
+    storage_.swap(merged_);
+    return;
+  }
+  // Split by x into one range per thread, sort and merge each range on its own thread,
+  // then move the merged ranges together.
+  const size_t parts = static_cast<size_t>(pool->workers()) + 1;
+  const std::vector<size_t> offsets = internal::PartitionByTopBits(
+      sort_a_.data(), sort_b_.data(), n, ib, kb, std::min(bx, 16), parts);
+  std::vector<size_t> merged(parts);
+  pool->ParallelFor(parts, [&](size_t first, size_t last) {
+    for (size_t p = first; p < last; ++p) {
+      const size_t begin = offsets[p], count = offsets[p + 1] - begin;
+      const uint64_t* sorted =
+          internal::RadixSort(sort_b_.data() + begin, sort_a_.data() + begin, count, ib, kb);
+      merged[p] = MergeSorted(items, sorted, count, index_mask, merged_.data() + begin);
     }
+  });
+  size_t m = 0;
+  for (size_t p = 0; p < parts; ++p) {
+    Item* src = merged_.data() + offsets[p];
+    if (src != merged_.data() + m) std::move(src, src + merged[p], merged_.data() + m);
+    m += merged[p];
   }
-  storage_.swap(merged_);
   n_ = m;
+  storage_.swap(merged_);
 }
 
 }  // namespace skimap

@@ -216,6 +216,45 @@ TEST(SkiMapTest, ParallelAndSerialBatchesGiveTheSameMap) {
   EXPECT_DOUBLE_EQ(total, 200000 - batch.rejected());
 }
 
+TEST(VoxelBatchTest, ParallelAddAndFinalizeMatchSerial) {
+  ThreadPool pool(2);
+  const Grid grid(0.02, {-0.5, 0.25, 0});
+  std::mt19937 rng(17);
+  std::normal_distribution<double> n(0, 2);
+  std::vector<Point3> points(300000);
+  for (Point3& p : points) p = {n(rng), n(rng), n(rng) * 0.3};
+  points[1234].x = NAN;    // rejected
+  points[99999].y = 1e12;  // rejected
+  auto get = [&](size_t i, Point3* p, RGBWeightedVoxel* d) {
+    if (i % 97 == 0) return false;  // skipped, as a pixel without depth
+    *p = points[i];
+    *d = RGBWeightedVoxel(i % 256, 0, 0, 1);
+    return true;
+  };
+  VoxelBatch<RGBWeightedVoxel> serial, parallel;
+  serial.AddPoints(grid, points.size(), get);
+  parallel.AddPoints(grid, points.size(), get, &pool);
+  EXPECT_EQ(serial.rejected(), 2u);
+  EXPECT_EQ(parallel.rejected(), 2u);
+  serial.Finalize();
+  parallel.Finalize(&pool);
+  ASSERT_EQ(serial.size(), parallel.size());
+  ASSERT_TRUE(serial.finalized() && parallel.finalized());
+  double weight = 0;
+  for (size_t i = 0; i < serial.size(); ++i) {
+    const auto& a = serial.items()[i];
+    const auto& b = parallel.items()[i];
+    ASSERT_EQ(a.key, b.key) << i;
+    EXPECT_FLOAT_EQ(a.data.weight, b.data.weight);
+    EXPECT_NEAR(a.data.r, b.data.r, 1e-3 * a.data.r + 1e-3);  // summation order differs
+    if (i > 0) ASSERT_LT(serial.items()[i - 1].key, a.key);
+    weight += a.data.weight;
+  }
+  size_t skipped = 0;
+  for (size_t i = 0; i < points.size(); ++i) skipped += i % 97 == 0;
+  EXPECT_EQ(weight, double(points.size() - skipped - 2));
+}
+
 TEST(SkiMapTest, MultiLabelVoxelsFuseAndEmptyOut) {
   SkiMap<MultiLabelVoxel> map({.resolution = 0.01});
   ASSERT_TRUE(map.Integrate({0, 0, 0}, MultiLabelVoxel(4, 2)).ok());
