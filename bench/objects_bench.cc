@@ -241,6 +241,10 @@ int main(int argc, char** argv) {
         "features + voxels + mean shift %.1f s; bandwidth %g, verify threshold %g\n\n",
         detector.c_str(), trained.size(), (long long)frames, (long long)descriptors,
         (long long)voxels, voxel_seconds, base->mean_shift.bandwidth, base->verify_threshold);
+    if (a.rtrees) {
+      for (int k : a.ks) RTreesRow(a, trained, k);
+      continue;
+    }
     std::printf(
         "| k | classes | forest train s | forest MB | SQLite file MB | predict us/feature "
         "| feature top-1 | verified precision | view top-1 |\n");
