@@ -26,16 +26,20 @@ class SkiMapAdapter {
         SkiMap<WeightVoxel>::Options{.resolution = res_, .pool = Pool()});
   }
 
-  // One frame: aggregate per voxel in a batch, then one tree update per distinct voxel.
+  // One frame: aggregate per voxel in a batch, then one tree update per distinct voxel;
+  // with a pool, keys, sort and tree update all run on its threads.
   void Insert(const Cloud& cloud) {
     batch_.Clear();
     batch_.Reserve(cloud.size());
-    batch_.AddPoints(map_->grid(), cloud.size(), [&](size_t i, Point3* p, WeightVoxel* d) {
-      *p = {cloud[i].x, cloud[i].y, cloud[i].z};
-      *d = WeightVoxel{1};
-      return true;
-    });
-    batch_.Finalize();
+    batch_.AddPoints(
+        map_->grid(), cloud.size(),
+        [&](size_t i, Point3* p, WeightVoxel* d) {
+          *p = {cloud[i].x, cloud[i].y, cloud[i].z};
+          *d = WeightVoxel{1};
+          return true;
+        },
+        Pool());
+    batch_.Finalize(Pool());
     map_->Integrate(batch_);
   }
   size_t RadiusCount(const PointF& c, double r) const {
