@@ -24,6 +24,7 @@ LiveMap::LiveMap(std::string id, const Options& options)
     : id_(std::move(id)),
       options_(options),
       volume_({.resolution = options.config.resolution, .pool = options.pool}),
+      free_({.resolution = options.config.resolution, .pool = options.pool}),
       queue_({.capacity = options.queue_capacity}) {}
 
 LiveMap::~LiveMap() = default;
@@ -65,12 +66,13 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   }
   absl::StatusOr<perception::RgbdFrame> decoded = DecodeFrame(*frame);
   if (!decoded.ok()) return decoded.status();
-  const perception::IntegrationStats stats =
-      perception::BuildFrameBatch(*decoded, volume_.grid(), options_.config.integration, &batch_);
+  perception::IntegrationStats stats;
+  BuildBatches(*decoded, &batch_, &free_batch_, &stats);
   WriteStats written;
   {
     WriterLock lock(&snapshot_mu_);
     written = volume_.Integrate(batch_);
+    if (!free_batch_.empty()) free_.Integrate(free_batch_);
     ++frames_;
   }
   sequences_.insert(frame->sequence());
@@ -81,6 +83,18 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   ack.set_points(stats.points);
   SetDuration(Clock::now() - start, ack.mutable_integration_time());
   return ack;
+}
+
+void LiveMap::BuildBatches(const perception::RgbdFrame& frame, VoxelBatch<RGBWeightedVoxel>* batch,
+                           VoxelBatch<WeightVoxel>* free_batch,
+                           perception::IntegrationStats* stats) {
+  const MapConfig& c = options_.config;
+  *stats = perception::BuildFrameBatch(frame, volume_.grid(), c.integration, batch);
+  if (c.carve_free_space) {
+    perception::BuildFreeSpaceBatch(frame, free_.grid(), c.integration, c.FreeSpace(), free_batch);
+  } else {
+    free_batch->Clear();
+  }
 }
 
 void LiveMap::KeepFrame(uint64_t sequence, KeptFrame kept) {
@@ -128,15 +142,17 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
     KeptFrame& kept = kept_.at(request.updates(i).sequence());
     absl::StatusOr<perception::RgbdFrame> frame = DecodeFrame(*kept.frame);
     if (!frame.ok()) return frame.status();  // decoded fine before: cannot happen
-    const perception::IntegrationOptions& io = options_.config.integration;
+    perception::IntegrationStats ignored;
     frame->pose = kept.pose;
-    perception::BuildFrameBatch(*frame, volume_.grid(), io, &old_batch_);
+    BuildBatches(*frame, &old_batch_, &old_free_batch_, &ignored);
     frame->pose = poses[i];
-    perception::BuildFrameBatch(*frame, volume_.grid(), io, &batch_);
+    BuildBatches(*frame, &batch_, &free_batch_, &ignored);
     {
       WriterLock lock(&snapshot_mu_);
       total += volume_.Deintegrate(old_batch_);
       total += volume_.Integrate(batch_);
+      if (!old_free_batch_.empty()) free_.Deintegrate(old_free_batch_);
+      if (!free_batch_.empty()) free_.Integrate(free_batch_);
     }
     kept.pose = poses[i];
   }
@@ -153,6 +169,7 @@ v1::MapStats LiveMap::Stats() const {
   stats.set_memory_bytes(volume_.MemoryUsage());
   stats.set_frames(frames_);
   stats.set_kept_frame_bytes(kept_bytes_);
+  stats.set_free_voxels(free_.size());
   if (std::optional<KeyBox> box = volume_.Bounds()) {
     const Grid& g = volume_.grid();
     const double r = g.resolution();

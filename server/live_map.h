@@ -39,6 +39,8 @@
 namespace skimap::server {
 
 using Volume = SkiMap<RGBWeightedVoxel>;
+// Free-space evidence (rays that crossed a voxel), for maps with carve_free_space.
+using FreeVolume = SkiMap<WeightVoxel>;
 
 class LiveMap {
  public:
@@ -75,6 +77,13 @@ class LiveMap {
     ReaderLock lock(&snapshot_mu_);
     return fn(volume_, frames_);
   }
+  // Like Read, with the free-space volume too (empty unless the map carves):
+  // fn(const Volume&, const FreeVolume&, uint64_t frames_integrated).
+  template <class Fn>
+  auto ReadWithFreeSpace(Fn&& fn) const {
+    ReaderLock lock(&snapshot_mu_);
+    return fn(volume_, free_, frames_);
+  }
   // Counters from one snapshot.
   v1::MapStats Stats() const;
 
@@ -92,6 +101,10 @@ class LiveMap {
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(
       const v1::UpdatePosesRequest& request);
   void KeepFrame(uint64_t sequence, KeptFrame kept);
+  // Builds the batches that integrate `frame` with frame.pose: its observations, and its
+  // free-space evidence (left empty when the map does not carve).
+  void BuildBatches(const perception::RgbdFrame& frame, VoxelBatch<RGBWeightedVoxel>* batch,
+                    VoxelBatch<WeightVoxel>* free_batch, perception::IntegrationStats* stats);
   absl::Status MapGone() const;
 
   const std::string id_;
@@ -100,6 +113,7 @@ class LiveMap {
 
   mutable RwLock snapshot_mu_;
   Volume volume_ ABSL_GUARDED_BY(snapshot_mu_);
+  FreeVolume free_ ABSL_GUARDED_BY(snapshot_mu_);
   uint64_t frames_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
   size_t kept_bytes_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
 
@@ -107,6 +121,7 @@ class LiveMap {
   std::map<uint64_t, KeptFrame> kept_;
   std::unordered_set<uint64_t> sequences_;
   VoxelBatch<RGBWeightedVoxel> batch_, old_batch_;
+  VoxelBatch<WeightVoxel> free_batch_, old_free_batch_;  // empty unless carving
 
   WorkQueue queue_;  // last: destroyed first, draining tasks while the rest is alive
 };

@@ -45,6 +45,13 @@ absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& o) {
       !(c.band_min_z <= c.band_max_z)) {
     return Bad("band_min_z", "band: need finite floor_min_z <= band_min_z <= band_max_z");
   }
+  if (o.has_carve_free_space()) c.carve_free_space = o.carve_free_space();
+  if (o.has_carve_pixel_stride()) {
+    if (o.carve_pixel_stride() < 1 || o.carve_pixel_stride() > 64) {
+      return Bad("carve_pixel_stride", "must be in 1..64");
+    }
+    c.carve_pixel_stride = static_cast<int>(o.carve_pixel_stride());
+  }
   return c;
 }
 
@@ -58,6 +65,8 @@ v1::MapOptions ToProto(const MapConfig& c) {
   o.set_band_min_z(c.band_min_z);
   o.set_band_max_z(c.band_max_z);
   o.set_floor_min_z(c.floor_min_z);
+  o.set_carve_free_space(c.carve_free_space);
+  o.set_carve_pixel_stride(c.carve_pixel_stride);
   return o;
 }
 

@@ -10,6 +10,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "perception/frame_integrator.h"
+#include "perception/free_space.h"
 #include "skimap/map_queries.h"
 #include "skimap/v1/maps.pb.h"
 
@@ -20,6 +21,12 @@ struct MapConfig {
   perception::IntegrationOptions integration;
   float min_voxel_weight = 1;                                      // queries ignore lighter voxels
   double band_min_z = 0.05, band_max_z = 1.5, floor_min_z = -0.3;  // occupancy grid band
+  bool carve_free_space = false;  // free-space carving (MapOptions.carve_free_space)
+  int carve_pixel_stride = 4;
+  // The carving parameters as perception takes them (the slab is the grid band).
+  perception::FreeSpaceOptions FreeSpace() const {
+    return {.pixel_stride = carve_pixel_stride, .min_z = band_min_z, .max_z = band_max_z};
+  }
 };
 
 // Fills the defaults of absent fields and validates. InvalidArgument naming the field

@@ -4,6 +4,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "server/free_space_grid.h"
 #include "server/map_service.h"
 #include "skimap/map_queries.h"
 
@@ -88,14 +89,18 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
     return absl::InvalidArgumentError(
         "band_min_z: need finite floor_min_z <= band_min_z <= band_max_z");
   }
+  // Free evidence needs a ray per voxel, not the surface weight threshold.
+  constexpr float kMinFreeRays = 1;
   v1::OccupancyGrid out;
-  absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t frames) {
-    absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
-    if (!grid.ok()) return PrefixField(grid.status(), "region");
-    FillGeometry(grid->geometry, frames, &out);
-    out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
-    return absl::OkStatus();
-  });
+  absl::Status status =
+      (*map)->ReadWithFreeSpace([&](const Volume& volume, const FreeVolume& free, uint64_t frames) {
+        absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
+        if (!grid.ok()) return PrefixField(grid.status(), "region");
+        MarkCarvedCells(free, o.band_min_z, o.band_max_z, kMinFreeRays, &*grid);
+        FillGeometry(grid->geometry, frames, &out);
+        out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
+        return absl::OkStatus();
+      });
   if (!status.ok()) return status;
   return out;
 }
