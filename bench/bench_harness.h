@@ -14,8 +14,9 @@
 //     double VisitAll() const;  size_t HeightMap() const;  size_t OccupancyGrid() const;
 //   };
 //
-// Register*<Adapter>("Name") adds BM_<Operation>_Name/<arg> benchmarks (insert args are the
-// resolution in mm; radius args the radius in cm; box args the box side in cm). Structures
+// Run*<Adapter> are the loops; bench_register.h registers them as BM_<Operation>_Name/<arg>
+// benchmarks (insert args are the resolution in mm; radius args the radius in cm; box
+// args the box side in cm). Structures
 // used by queries are built once per process on first use and cached, together with the
 // heap bytes their build allocated (mallinfo2 difference; see HeapBytesInUse()).
 //
@@ -169,84 +170,6 @@ void RunMemory(benchmark::State& state, Workload w) {
   state.counters["heap_bytes"] = static_cast<double>(b.heap_bytes);
   state.counters["bytes_per_voxel"] = static_cast<double>(b.heap_bytes) / voxels;
   state.counters["lib_bytes_per_voxel"] = static_cast<double>(b.s->LibBytes()) / voxels;
-}
-
-// Room frame at 1, 2, 5 cm and the real frames, empty and steady state.
-template <class S>
-void RegisterInserts(const std::string& name, std::vector<int64_t> res_mm = {10, 20, 50}) {
-  auto reg = [&](const std::string& op, bool steady, bool real) {
-    auto* b = benchmark::RegisterBenchmark(
-        ("BM_" + op + "_" + name).c_str(), [steady, real](benchmark::State& st) {
-          RunInsert<S>(st, real ? YcbvFrames() : RoomFrameList(), steady);
-        });
-    for (int64_t r : res_mm) b->Arg(r);
-    b->Unit(benchmark::kMillisecond)->UseRealTime();
-  };
-  reg("InsertRoom", false, false);
-  reg("InsertRoomSteady", true, false);
-  reg("InsertYcbv", false, true);
-  reg("InsertYcbvSteady", true, true);
-}
-
-template <class S>
-void RegisterRadius(const std::string& name) {
-  benchmark::RegisterBenchmark(("BM_RadiusUniform_" + name).c_str(),
-                               [](benchmark::State& st) { RunRadius<S>(st, Workload::kUniform); })
-      ->Arg(5)
-      ->Arg(20)
-      ->Arg(50)
-      ->Unit(benchmark::kMicrosecond);
-  benchmark::RegisterBenchmark(("BM_RadiusSurface_" + name).c_str(),
-                               [](benchmark::State& st) { RunRadius<S>(st, Workload::kSurface); })
-      ->Arg(2)
-      ->Arg(10)
-      ->Arg(20)
-      ->Arg(50)
-      ->Arg(100)
-      ->Unit(benchmark::kMicrosecond);
-}
-
-// Box, visit-all, height map and occupancy grid on the big map, where S supports them.
-template <class S>
-void RegisterMapQueries(const std::string& name) {
-  auto tail = [](benchmark::internal::Benchmark* b) { b->Unit(benchmark::kMillisecond); };
-  if constexpr (requires(const S& s, PointF p) { s.BoxCount(p, p); }) {
-    benchmark::RegisterBenchmark(("BM_BoxQuery_" + name).c_str(), RunBox<S>)
-        ->Arg(50)
-        ->Arg(200)
-        ->Unit(benchmark::kMicrosecond);
-  }
-  if constexpr (requires(const S& s) { s.VisitAll(); }) {
-    tail(benchmark::RegisterBenchmark(("BM_VisitAll_" + name).c_str(), [](benchmark::State& st) {
-      RunWhole<S>(st, [](const S& s) { return s.VisitAll(); });
-    }));
-  }
-  if constexpr (requires(const S& s) { s.HeightMap(); }) {
-    tail(benchmark::RegisterBenchmark(("BM_HeightMap_" + name).c_str(), [](benchmark::State& st) {
-      RunWhole<S>(st, [](const S& s) { return s.HeightMap(); });
-    }));
-  }
-  if constexpr (requires(const S& s) { s.OccupancyGrid(); }) {
-    tail(benchmark::RegisterBenchmark(
-        ("BM_OccupancyGrid_" + name).c_str(), [](benchmark::State& st) {
-          RunWhole<S>(st, [](const S& s) { return s.OccupancyGrid(); });
-        }));
-  }
-}
-
-// Heap bytes per voxel on the big map, the surface maps at 1, 2, 5 cm and the uniform points.
-template <class S>
-void RegisterMemory(const std::string& name, bool big = true) {
-  auto reg = [&](Workload w, std::vector<int64_t> res) {
-    auto* b = benchmark::RegisterBenchmark(
-        (std::string("BM_Memory") + WorkloadName(w) + "_" + name).c_str(),
-        [w](benchmark::State& st) { RunMemory<S>(st, w); });
-    for (int64_t r : res) b->Arg(r);
-    b->Iterations(1);
-  };
-  reg(Workload::kUniform, {kUniformResMm});
-  reg(Workload::kSurface, {10, 20, 50});
-  if (big) reg(Workload::kBig, {kBigResMm});
 }
 
 }  // namespace skimap::bench

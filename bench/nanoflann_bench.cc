@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "bench/bench_harness.h"
+#include "bench/bench_register.h"
 
 namespace skimap::bench {
 namespace {

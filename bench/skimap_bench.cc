@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "bench/bench_harness.h"
+#include "bench/bench_register.h"
 #include "skimap/map_queries.h"
 #include "skimap/skimap.h"
 
