@@ -132,11 +132,11 @@ class SkipListCore {
   // First node whose key is >= key (find-nearest), or nullptr.
   Node* LowerBound(const K& key) const {
     if (head_capacity_ == 0) return nullptr;
-    Node* cur = nullptr;
+    Node** links = Links(nullptr);
     for (int l = height_ - 1; l >= 0; --l) {
-      for (Node* n = Links(cur)[l]; n != nullptr && n->key < key; n = Links(cur)[l]) cur = n;
+      for (Node* n = links[l]; n != nullptr && n->key < key; n = links[l]) links = n->next;
     }
-    return Links(cur)[0];
+    return links[0];
   }
 
   // Node with exactly `key`, or nullptr.
@@ -150,15 +150,24 @@ class SkipListCore {
   // since then only through this finger.
   Node* Seek(Finger& finger, const K& key) const {
     if (head_capacity_ == 0) return nullptr;
-    Node* cur = nullptr;
+    Node* cur = nullptr;  // the head
+    Node** links = Links(nullptr);
     for (int l = height_ - 1; l >= 0; --l) {
-      Node* p = l < finger.valid ? finger.preds[l] : nullptr;
-      if (p != nullptr && (cur == nullptr || cur->key < p->key)) cur = p;
-      for (Node* n = Links(cur)[l]; n != nullptr && n->key < key; n = Links(cur)[l]) cur = n;
+      if (l < finger.valid) {
+        Node* p = finger.preds[l];
+        if (p != nullptr && (cur == nullptr || cur->key < p->key)) {
+          cur = p;
+          links = p->next;
+        }
+      }
+      for (Node* n = links[l]; n != nullptr && n->key < key; n = links[l]) {
+        cur = n;
+        links = n->next;
+      }
       finger.preds[l] = cur;
     }
     if (finger.valid < height_) finger.valid = height_;
-    return Links(cur)[0];
+    return links[0];
   }
 
   // Returns the node for `key`, inserting one with a default-constructed value if missing;
