@@ -19,6 +19,7 @@
 #include "absl/status/status.h"
 #include "perception/rgbd_frame.h"
 #include "skimap/grid.h"
+#include "skimap/thread_pool.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
 
@@ -39,11 +40,13 @@ struct IntegrationStats {
 // InvalidArgument naming the bad option ("min_depth", "max_depth", "pixel_stride").
 absl::Status ValidateIntegrationOptions(const IntegrationOptions& options);
 
-// Clears *batch and fills it with the frame's observations, finalized.
+// Clears *batch and fills it with the frame's observations, finalized. With a pool,
+// back-projection and sorting run on its threads too (VoxelBatch::AddPoints/Finalize);
+// the batch is the same either way.
 // REQUIRES: ValidateFrame(frame) and ValidateIntegrationOptions(options) are OK.
 IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
                                  const IntegrationOptions& options,
-                                 VoxelBatch<RGBWeightedVoxel>* batch);
+                                 VoxelBatch<RGBWeightedVoxel>* batch, ThreadPool* pool = nullptr);
 
 }  // namespace skimap::perception
 

@@ -89,7 +89,7 @@ void LiveMap::BuildBatches(const perception::RgbdFrame& frame, VoxelBatch<RGBWei
                            VoxelBatch<WeightVoxel>* free_batch,
                            perception::IntegrationStats* stats) {
   const MapConfig& c = options_.config;
-  *stats = perception::BuildFrameBatch(frame, volume_.grid(), c.integration, batch);
+  *stats = perception::BuildFrameBatch(frame, volume_.grid(), c.integration, batch, options_.pool);
   if (c.carve_free_space) {
     perception::BuildFreeSpaceBatch(frame, free_.grid(), c.integration, c.FreeSpace(), free_batch);
   } else {
