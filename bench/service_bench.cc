@@ -1,0 +1,325 @@
+// service_bench: the map service over loopback gRPC (issue 4; docs/benchmarks.md, "Map
+// service"). A plain program, not a test:
+//
+//   build/bench/bench/service_bench [--frames=N] [--queries=N] [--worker_threads=N]
+//
+// 1. Ingestion: frames/s of StreamFrames (window 8) for one stream and for 4 concurrent
+//    streams (each into its own map), 640x480 depth at 2 cm and 5 cm voxels, depth sent
+//    raw, as PNG16 and as zstd. Mapping only (no colour, no carving).
+// 2. Grid queries: p50/p99 latency of GetOccupancyGrid over a 20 m x 20 m region of a map
+//    while 2 streams ingest into it.
+// 3. The server's per-frame path without gRPC: decode, back-projection + batch, integration.
+//
+// Frames are ray-cast up front from an analytic 20 m x 20 m room (floor, walls, 24 pillars
+// and tables) along a loop 1.2 m above the floor, so the map grows to the room's size.
+// Floors (issue 4): >= 30 frames/s for one stream; grid query p99 < 50 ms under load.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "Eigen/Geometry"
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/strings/str_cat.h"
+#include "client/map_client.h"
+#include "perception/frame_integrator.h"
+#include "perception/image_codec.h"
+#include "server/frame_decode.h"
+#include "server/grpc_server.h"
+#include "skimap/skimap.h"
+
+ABSL_FLAG(int, frames, 150, "frames per ingestion run (per stream)");
+ABSL_FLAG(int, queries, 200, "grid queries in the latency run");
+ABSL_FLAG(int, worker_threads, 2, "skimapd integration threads");
+
+namespace skimap::bench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+constexpr int kWidth = 640, kHeight = 480;
+constexpr double kFx = 525, kFy = 525, kCx = 319.5, kCy = 239.5;
+constexpr int kPoses = 48;
+
+struct Box {
+  Eigen::Vector3d min, max;
+};
+
+// The room: walls 10 cm thick at +-10 m, pillars and tables on a jittered lattice.
+std::vector<Box> MakeRoom() {
+  std::vector<Box> boxes = {{{-10.1, -10.1, 0}, {-10, 10.1, 3}},
+                            {{10, -10.1, 0}, {10.1, 10.1, 3}},
+                            {{-10.1, -10.1, 0}, {10.1, -10, 3}},
+                            {{-10.1, 10, 0}, {10.1, 10.1, 3}}};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-1.0, 1.0);
+  for (int i = 0; i < 24; ++i) {
+    const double x = -7.5 + 3.0 * (i % 6) + jitter(rng), y = -7.5 + 3.0 * (i / 6) * 1.25;
+    if (std::hypot(x, y) > 5.0 && std::hypot(x, y) < 7.0) continue;  // keep the loop clear
+    const double h = i % 3 == 0 ? 2.5 : 0.75, s = i % 3 == 0 ? 0.3 : 0.8;
+    boxes.push_back({{x - s / 2, y - s / 2, 0}, {x + s / 2, y + s / 2, h}});
+  }
+  return boxes;
+}
+
+double Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const std::vector<Box>& boxes) {
+  double best = d.z() < 0 ? -o.z() / d.z() : std::numeric_limits<double>::infinity();
+  for (const Box& b : boxes) {
+    double t0 = 0, t1 = best;
+    for (int a = 0; a < 3 && t0 <= t1; ++a) {
+      if (std::abs(d[a]) < 1e-12) {
+        if (o[a] < b.min[a] || o[a] > b.max[a]) t0 = t1 + 1;
+        continue;
+      }
+      double ta = (b.min[a] - o[a]) / d[a], tb = (b.max[a] - o[a]) / d[a];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+    }
+    if (t0 <= t1) best = std::min(best, t0);
+  }
+  return best;
+}
+
+// Pose k of the loop: radius 6 m, 1.2 m up, looking outwards-forwards and 15 degrees down.
+Eigen::Isometry3d LoopPose(int k) {
+  const double a = 2 * M_PI * k / kPoses;
+  const Eigen::Vector3d position(6 * std::cos(a), 6 * std::sin(a), 1.2);
+  Eigen::Vector3d forward(std::cos(a + 0.9), std::sin(a + 0.9), -0.27);
+  forward.normalize();
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  Eigen::Matrix3d r;
+  r << right, forward.cross(right), forward;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = r;
+  pose.translation() = position;
+  return pose;
+}
+
+perception::DepthImage Render(const Eigen::Isometry3d& pose, const std::vector<Box>& boxes) {
+  perception::DepthImage depth{kWidth, kHeight, std::vector<uint16_t>(kWidth * kHeight, 0)};
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      const Eigen::Vector3d ray((u - kCx) / kFx, (v - kCy) / kFy, 1);
+      const double t = Cast(pose.translation(), pose.linear() * ray, boxes);
+      if (t < 8.0) depth.pixels[v * kWidth + u] = uint16_t(std::lround(t * 1000));
+    }
+  }
+  return depth;
+}
+
+struct Encoded {
+  const char* name;
+  v1::DepthEncoding encoding;
+  std::vector<std::string> depth;  // one per pose
+};
+
+v1::Frame MakeFrame(const std::string& map, uint64_t sequence, int pose_index, const Encoded& enc) {
+  v1::Frame f;
+  f.set_map(map);
+  f.set_sequence(sequence);
+  const Eigen::Isometry3d pose = LoopPose(pose_index);
+  const Eigen::Quaterniond q(pose.linear());
+  auto* p = f.mutable_pose();
+  p->mutable_rotation()->set_w(q.w());
+  p->mutable_rotation()->set_x(q.x());
+  p->mutable_rotation()->set_y(q.y());
+  p->mutable_rotation()->set_z(q.z());
+  p->mutable_translation()->set_x(pose.translation().x());
+  p->mutable_translation()->set_y(pose.translation().y());
+  p->mutable_translation()->set_z(pose.translation().z());
+  auto* k = f.mutable_intrinsics();
+  k->set_fx(kFx);
+  k->set_fy(kFy);
+  k->set_cx(kCx);
+  k->set_cy(kCy);
+  k->set_width(kWidth);
+  k->set_height(kHeight);
+  f.set_depth_encoding(enc.encoding);
+  f.set_depth(enc.depth[pose_index % kPoses]);
+  f.set_depth_scale(0.001);
+  return f;
+}
+
+void CreateMap(client::MapClient& client, const std::string& id, double resolution) {
+  v1::CreateMapRequest request;
+  request.set_map_id(id);
+  request.mutable_options()->set_resolution(resolution);
+  request.mutable_options()->set_max_depth(8.0);
+  if (auto map = client.CreateMap(request); !map.ok()) {
+    std::fprintf(stderr, "CreateMap %s: %s\n", id.c_str(), map.status().ToString().c_str());
+    std::exit(1);
+  }
+}
+
+// Streams `frames` frames into maps/{id}; returns the number acknowledged OK.
+int Stream(client::MapClient& client, const std::string& id, int frames, uint64_t first_sequence,
+           const Encoded& enc, const std::atomic<bool>* stop = nullptr) {
+  std::unique_ptr<client::FrameStream> stream = client.OpenFrameStream({.window = 8});
+  const std::string map = absl::StrCat("maps/", id);
+  for (int i = 0; i < frames && !(stop && stop->load()); ++i) {
+    if (!stream->Send(MakeFrame(map, first_sequence + i, int(first_sequence + i), enc)).ok()) break;
+  }
+  auto acks = stream->Finish();
+  if (!acks.ok()) return 0;
+  return int(std::count_if(acks->begin(), acks->end(),
+                           [](const v1::FrameAck& a) { return a.code() == 0; }));
+}
+
+double Percentile(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, size_t(p * v.size()))];
+}
+
+}  // namespace
+}  // namespace skimap::bench
+
+int main(int argc, char** argv) {
+  using namespace skimap;
+  using namespace skimap::bench;
+  absl::ParseCommandLine(argc, argv);
+  const int frames = absl::GetFlag(FLAGS_frames);
+
+  std::printf("rendering %d poses of a 20 m x 20 m room (640x480)...\n", kPoses);
+  const std::vector<Box> room = MakeRoom();
+  std::vector<perception::DepthImage> depth(kPoses);
+  for (int k = 0; k < kPoses; ++k) depth[k] = Render(LoopPose(k), room);
+  std::vector<Encoded> encodings = {{"raw", v1::DEPTH_ENCODING_RAW_U16, {}},
+                                    {"png16", v1::DEPTH_ENCODING_PNG16, {}},
+                                    {"zstd", v1::DEPTH_ENCODING_ZSTD, {}}};
+  const perception::DepthCodec codecs[] = {perception::DepthCodec::kRawU16,
+                                           perception::DepthCodec::kPng16,
+                                           perception::DepthCodec::kZstd};
+  for (size_t e = 0; e < encodings.size(); ++e) {
+    size_t bytes = 0;
+    for (const auto& d : depth) {
+      encodings[e].depth.push_back(*perception::EncodeDepth(codecs[e], d));
+      bytes += encodings[e].depth.back().size();
+    }
+    std::printf("depth %-5s %7.1f kB/frame\n", encodings[e].name, bytes / 1024.0 / kPoses);
+  }
+
+  server::GrpcServer::Options options;
+  options.address = "127.0.0.1:0";
+  options.service.worker_threads = absl::GetFlag(FLAGS_worker_threads);
+  options.service.max_kept_frame_bytes = size_t{256} << 20;
+  auto server = server::GrpcServer::Start(options);
+  if (!server.ok()) {
+    std::fprintf(stderr, "%s\n", server.status().ToString().c_str());
+    return 1;
+  }
+  auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*server)->port()));
+  int map_counter = 0;
+
+  std::printf("\n## Ingestion over loopback gRPC (frames/s, %d frames per stream)\n\n", frames);
+  std::printf("| resolution | depth | 1 stream | 4 streams (total) |\n|---|---|---|---|\n");
+  for (double resolution : {0.02, 0.05}) {
+    for (const Encoded& enc : encodings) {
+      const std::string one = absl::StrCat("one", map_counter++);
+      CreateMap(*client, one, resolution);
+      Clock::time_point start = Clock::now();
+      const int ok1 = Stream(*client, one, frames, 0, enc);
+      const double fps1 = ok1 / Seconds(Clock::now() - start);
+      std::vector<std::string> ids;
+      for (int s = 0; s < 4; ++s) {
+        ids.push_back(absl::StrCat("four", map_counter++));
+        CreateMap(*client, ids.back(), resolution);
+      }
+      std::atomic<int> ok4{0};
+      start = Clock::now();
+      std::vector<std::thread> threads;
+      for (int s = 0; s < 4; ++s) {
+        threads.emplace_back([&, s] { ok4 += Stream(*client, ids[s], frames / 2, s * 7, enc); });
+      }
+      for (std::thread& t : threads) t.join();
+      const double fps4 = ok4 / Seconds(Clock::now() - start);
+      std::printf("| %.0f cm | %s | %.1f | %.1f |\n", resolution * 100, enc.name, fps1, fps4);
+      std::fflush(stdout);
+      for (const std::string& id : ids) (void)client->DeleteMap(absl::StrCat("maps/", id));
+      (void)client->DeleteMap(absl::StrCat("maps/", one));
+    }
+  }
+
+  std::printf("\n## Occupancy grid of a 20 m x 20 m map while 2 streams ingest into it\n\n");
+  std::printf("| resolution | grid cells | queries | p50 ms | p99 ms | ingest frames/s |\n");
+  std::printf("|---|---|---|---|---|---|\n");
+  for (double resolution : {0.05, 0.02}) {
+    const std::string id = absl::StrCat("query", map_counter++);
+    CreateMap(*client, id, resolution);
+    Stream(*client, id, kPoses, 1000000, encodings[2]);  // the whole loop: the room's extent
+    std::atomic<bool> stop{false};
+    std::atomic<int> ingested{0};
+    std::vector<std::thread> streams;
+    const Clock::time_point start = Clock::now();
+    for (int s = 0; s < 2; ++s) {
+      streams.emplace_back([&, s] {
+        for (uint64_t round = 0; !stop.load(); ++round) {
+          ingested += Stream(*client, id, 24, (s + 1) * 10000000 + round * 24, encodings[2], &stop);
+        }
+      });
+    }
+    v1::GetOccupancyGridRequest request;
+    request.set_map(absl::StrCat("maps/", id));
+    request.mutable_region()->set_min_x(-10);
+    request.mutable_region()->set_min_y(-10);
+    request.mutable_region()->set_max_x(10);
+    request.mutable_region()->set_max_y(10);
+    std::vector<double> ms;
+    size_t cells = 0;
+    for (int q = 0; q < absl::GetFlag(FLAGS_queries); ++q) {
+      const Clock::time_point t0 = Clock::now();
+      auto grid = client->GetOccupancyGrid(request);
+      ms.push_back(Seconds(Clock::now() - t0) * 1e3);
+      if (!grid.ok()) {
+        std::fprintf(stderr, "grid: %s\n", grid.status().ToString().c_str());
+        return 1;
+      }
+      cells = grid->data().size();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    stop = true;
+    for (std::thread& t : streams) t.join();
+    const double fps = ingested / Seconds(Clock::now() - start);
+    std::printf("| %.0f cm | %zu | %zu | %.1f | %.1f | %.1f |\n", resolution * 100, cells,
+                ms.size(), Percentile(ms, 0.5), Percentile(ms, 0.99), fps);
+    std::fflush(stdout);
+    (void)client->DeleteMap(absl::StrCat("maps/", id));
+  }
+
+  std::printf("\n## Per-frame path without gRPC (ms per frame, mean of %d frames)\n\n", kPoses);
+  std::printf("| resolution | depth | decode | back-projection + batch | integrate |\n");
+  std::printf("|---|---|---|---|---|\n");
+  ThreadPool pool(absl::GetFlag(FLAGS_worker_threads));
+  for (double resolution : {0.02, 0.05}) {
+    for (const Encoded& enc : encodings) {
+      SkiMap<RGBWeightedVoxel> map({.resolution = resolution, .pool = &pool});
+      VoxelBatch<RGBWeightedVoxel> batch;
+      perception::IntegrationOptions io;
+      io.max_depth = 8.0;
+      double decode = 0, project = 0, integrate = 0;
+      for (int k = 0; k < kPoses; ++k) {
+        const v1::Frame frame = MakeFrame("maps/x", k, k, enc);
+        Clock::time_point t = Clock::now();
+        absl::StatusOr<perception::RgbdFrame> decoded = server::DecodeFrame(frame);
+        decode += Seconds(Clock::now() - t);
+        t = Clock::now();
+        perception::BuildFrameBatch(*decoded, map.grid(), io, &batch, &pool);
+        project += Seconds(Clock::now() - t);
+        t = Clock::now();
+        map.Integrate(batch);
+        integrate += Seconds(Clock::now() - t);
+      }
+      std::printf("| %.0f cm | %s | %.2f | %.2f | %.2f |\n", resolution * 100, enc.name,
+                  decode * 1e3 / kPoses, project * 1e3 / kPoses, integrate * 1e3 / kPoses);
+    }
+  }
+  return 0;
+}
