@@ -85,6 +85,12 @@ class SkiMap {
       }
     }
     size_t size() const { return list_.size(); }
+    // Key of the highest voxel and the voxel (REQUIRES: size() > 0, always true for the
+    // columns ForEachColumn hands out). O(log n).
+    std::pair<int32_t, const V*> Top() const {
+      const ZNode* n = list_.Last();
+      return {n->key, &n->value};
+    }
 
    private:
     const ZList& list_;
@@ -147,6 +153,9 @@ class SkiMap {
   bool empty() const { return size() == 0; }
   // Smallest key box holding every voxel; nullopt when empty.
   std::optional<KeyBox> Bounds() const;
+  // Like Bounds() on x and y only (z spans the whole key range): what 2D rasters need,
+  // found without visiting the z lists.
+  std::optional<KeyBox> FootprintBounds() const;
   // Heap and object bytes held by the map: pools (used and free), columns, the x level and
   // memory the voxels own (V::HeapBytes).
   size_t MemoryUsage() const;

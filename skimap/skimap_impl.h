@@ -389,6 +389,24 @@ std::optional<KeyBox> SkiMap<V>::Bounds() const {
 }
 
 template <Voxel V>
+std::optional<KeyBox> SkiMap<V>::FootprintBounds() const {
+  ReaderLock x_lock(&x_mu_);
+  if (xs_.empty()) return std::nullopt;
+  KeyBox b;
+  b.min.x = xs_.First()->key;
+  b.max.x = xs_.Last()->key;
+  b.min.y = kMaxKey;
+  b.max.y = kMinKey;
+  for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    ReaderLock lock(&column.mu);
+    b.min.y = std::min(b.min.y, column.ys.First()->key);
+    b.max.y = std::max(b.max.y, column.ys.Last()->key);
+  }
+  return b;
+}
+
+template <Voxel V>
 size_t SkiMap<V>::MemoryUsage() const {
   ReaderLock x_lock(&x_mu_);
   size_t bytes = sizeof(*this) - sizeof(xs_) + xs_.MemoryUsage();
