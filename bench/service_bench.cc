@@ -191,7 +191,14 @@ int main(int argc, char** argv) {
   std::printf("rendering %d poses of a 20 m x 20 m room (640x480)...\n", kPoses);
   const std::vector<Box> room = MakeRoom();
   std::vector<perception::DepthImage> depth(kPoses);
-  for (int k = 0; k < kPoses; ++k) depth[k] = Render(LoopPose(k), room);
+  size_t valid = 0;
+  for (int k = 0; k < kPoses; ++k) {
+    depth[k] = Render(LoopPose(k), room);
+    valid += std::count_if(depth[k].pixels.begin(), depth[k].pixels.end(),
+                           [](uint16_t d) { return d != 0; });
+  }
+  std::printf("valid depth pixels per frame: %.0f of %d\n", double(valid) / kPoses,
+              kWidth * kHeight);
   std::vector<Encoded> encodings = {{"raw", v1::DEPTH_ENCODING_RAW_U16, {}},
                                     {"png16", v1::DEPTH_ENCODING_PNG16, {}},
                                     {"zstd", v1::DEPTH_ENCODING_ZSTD, {}}};
