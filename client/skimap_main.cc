@@ -6,6 +6,8 @@
 //   skimap grid --map=ID -o FILE.yaml          ROS map_server PGM + YAML (trinary)
 //   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
 //   skimap voxels --map=ID -o FILE.ply
+//   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | build | classifier
+//     (client/objects_command.h)
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -16,6 +18,7 @@
 #include "absl/strings/str_format.h"
 #include "client/map_client.h"
 #include "client/map_files.h"
+#include "client/objects_command.h"
 #include "client/stream_command.h"
 
 ABSL_FLAG(std::string, server, "localhost:50051", "skimapd address host:port");
@@ -130,12 +133,17 @@ int main(int argc, char** argv) {
       "       skimap stream DATASET --map=ID [--fps=N]\n"
       "       skimap grid --map=ID -o FILE.yaml\n"
       "       skimap heightmap --map=ID -o FILE.png|FILE.tiff\n"
-      "       skimap voxels --map=ID -o FILE.ply");
+      "       skimap voxels --map=ID -o FILE.ply\n"
+      "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
+      "[--detector=ORB]|build|classifier");
   std::vector<char*> positional = absl::ParseCommandLine(argc, argv);
   std::vector<std::string> args(positional.begin(), positional.end());
   if (args.size() < 2) {
     std::fprintf(stderr, "%s\n", absl::ProgramUsageMessage().data());
     return 2;
+  }
+  if (args[1] == "objects") {
+    return skimap::client::RunObjectsCommand(absl::GetFlag(FLAGS_server), args);
   }
   std::unique_ptr<MapClient> client = MapClient::Connect(absl::GetFlag(FLAGS_server));
   const std::string& command = args[1];

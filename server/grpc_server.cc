@@ -14,11 +14,16 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   std::unique_ptr<GrpcServer> s(new GrpcServer());
   s->core_ = std::make_unique<MapService>(options.service);
   s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
+  absl::StatusOr<std::unique_ptr<ObjectService>> objects = ObjectService::Create(options.objects);
+  if (!objects.ok()) return objects.status();
+  s->objects_ = *std::move(objects);
+  s->grpc_objects_ = std::make_unique<GrpcObjectService>(s->objects_.get());
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.address, grpc::InsecureServerCredentials(), &s->port_);
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);
   builder.RegisterService(s->grpc_service_.get());
+  builder.RegisterService(s->grpc_objects_.get());
   s->server_ = builder.BuildAndStart();
   if (s->server_ == nullptr || s->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.address));

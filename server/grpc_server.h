@@ -1,5 +1,6 @@
 // GrpcServer: a running skimapd endpoint: the MapService core, its gRPC adapter, the
-// standard health service and server reflection (v1alpha in gRPC 1.51), on one address.
+// ObjectService core and adapter, the standard health service and server reflection
+// (v1alpha in gRPC 1.51), on one address.
 //
 //   absl::StatusOr<std::unique_ptr<GrpcServer>> server =
 //       GrpcServer::Start({.address = "127.0.0.1:0"});
@@ -18,6 +19,8 @@
 #include "absl/status/statusor.h"
 #include "server/grpc_service.h"
 #include "server/map_service.h"
+#include "server/object_grpc_service.h"
+#include "server/object_service.h"
 
 namespace skimap::server {
 
@@ -27,18 +30,22 @@ class GrpcServer {
     std::string address = "0.0.0.0:50051";  // host:port; port 0 = any free port
     MapService::Options service;
     GrpcMapService::Options grpc;
+    // The object service; objects.db_path "" keeps its database in memory only.
+    ObjectService::Options objects;
     // Largest gRPC message accepted or sent. Frames with images above
     // service.max_frame_bytes get RESOURCE_EXHAUSTED in their ack; messages above this
     // limit fail the call with RESOURCE_EXHAUSTED.
     int max_message_bytes = 80 << 20;
   };
 
-  // Binds and starts serving. Unavailable if the address cannot be bound.
+  // Binds and starts serving. Unavailable if the address cannot be bound; the object
+  // database's load error if it cannot be opened.
   static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options);
   ~GrpcServer();  // Shutdown()
 
   int port() const { return port_; }
   MapService& service() { return *core_; }
+  ObjectService& object_service() { return *objects_; }
 
   // Stops accepting calls, cancels open ones after `grace` and waits for them.
   void Shutdown(absl::Duration grace = absl::Seconds(2));
@@ -50,6 +57,8 @@ class GrpcServer {
 
   std::unique_ptr<MapService> core_;
   std::unique_ptr<GrpcMapService> grpc_service_;
+  std::unique_ptr<ObjectService> objects_;
+  std::unique_ptr<GrpcObjectService> grpc_objects_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
 };

@@ -3,12 +3,14 @@
 //   skimapd [--address=0.0.0.0:50051] [--data_dir=out/skimapd-data] [--worker_threads=2]
 //           [--max_message_mb=80] [--max_in_flight=8] [--queue_capacity=64]
 //
-// Serves skimap.v1.MapService, grpc.health.v1.Health and server reflection. Stops cleanly
-// on SIGINT or SIGTERM: no new calls, open calls get a 2 s grace period, queued frames are
-// finished.
+// Serves skimap.v1.MapService, skimap.v1.ObjectService (its object database is
+// DATA_DIR/objects.sqlite, loaded at start), grpc.health.v1.Health and server reflection.
+// Stops cleanly on SIGINT or SIGTERM: no new calls, open calls get a 2 s grace period,
+// queued frames are finished.
 #include <pthread.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -20,7 +22,8 @@
 
 ABSL_FLAG(std::string, address, "0.0.0.0:50051", "gRPC listen address (host:port)");
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
-          "directory for server data (created if missing; maps live in memory for now)");
+          "directory for server data (created if missing): objects.sqlite holds the object "
+          "database; maps live in memory for now");
 ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
@@ -58,6 +61,8 @@ int main(int argc, char** argv) {
   options.service.worker_threads = absl::GetFlag(FLAGS_worker_threads);
   options.service.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);
   options.grpc.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
+  options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
+  options.objects.threads = std::max(1, absl::GetFlag(FLAGS_worker_threads));
   absl::StatusOr<std::unique_ptr<skimap::server::GrpcServer>> server =
       skimap::server::GrpcServer::Start(options);
   if (!server.ok()) {

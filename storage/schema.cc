@@ -57,9 +57,22 @@ CREATE TABLE forest (
 );
 )sql";
 
+// Version 2: the raw training descriptors of each object's voxels, so that the object
+// service can rebuild the classifier (the forest trains on raw descriptors) after a
+// restart or a delete. No foreign key to objects: ObjectStore::Save rewrites that table.
+constexpr char kTrainingDescriptorsV2[] = R"sql(
+CREATE TABLE training_descriptors (
+  obj_id INTEGER NOT NULL,
+  rank INTEGER NOT NULL,
+  descriptors BLOB NOT NULL,
+  PRIMARY KEY (obj_id, rank)
+) WITHOUT ROWID;
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "object database: object_db, training_params, objects, voxels, centroids, forest",
      kObjectDatabaseV1},
+    {2, "training_descriptors: raw descriptors per object voxel", kTrainingDescriptorsV2},
 };
 
 }  // namespace

@@ -1,0 +1,30 @@
+// `skimap objects ...`: the object service from the command line.
+//
+//   skimap objects ls                         objects with their sizes
+//   skimap objects info ID                    one object (and the classifier state)
+//   skimap objects rm ID
+//   skimap objects train DATASET [--object=ID] [--detector=ORB|SIFT|AKAZE|BRISK]
+//                 [--name=NAME] [--frame_stride=N] [--object_resolution=M] [--on_server]
+//       DATASET is a BOP root (every train/<id>/ object, or only --object) or, with
+//       --object, one BOP scene folder. Frames are streamed from this machine; with
+//       --on_server the server reads DATASET from its own disk (a long-running operation).
+//   skimap objects build [--classes_per_object=K] [--trees=T] [--max_depth=D]
+//       builds the classifier and waits, printing progress
+//   skimap objects classifier                  the classifier's state
+//
+// Thread safety: one call at a time.
+#ifndef CLIENT_OBJECTS_COMMAND_H_
+#define CLIENT_OBJECTS_COMMAND_H_
+
+#include <string>
+#include <vector>
+
+namespace skimap::client {
+
+// args: the positional arguments (args[0] the program, args[1] "objects", args[2] the verb).
+// Returns the process exit code (0 OK, 1 error, 2 usage), printing errors to stderr.
+int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args);
+
+}  // namespace skimap::client
+
+#endif  // CLIENT_OBJECTS_COMMAND_H_

@@ -1,0 +1,98 @@
+// Helpers of the object service tests: an in-process skimapd endpoint on a data dir, and
+// the sim `mini` training views streamed through the client library.
+#ifndef SKIMAP_TESTS_OBJECT_SERVICE_FIXTURE_H_
+#define SKIMAP_TESTS_OBJECT_SERVICE_FIXTURE_H_
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "client/object_client.h"
+#include "client/training_frames.h"
+#include "dataset/reader.h"
+#include "server/grpc_server.h"
+#include "tests/objects/sim_data.h"
+
+namespace skimap::testing {
+
+// A GrpcServer on 127.0.0.1:<free port> whose object database is DATA_DIR/objects.sqlite.
+inline std::unique_ptr<server::GrpcServer> StartServer(const std::string& data_dir) {
+  server::GrpcServer::Options o;
+  o.address = "127.0.0.1:0";
+  o.service.worker_threads = 1;
+  o.objects.db_path = data_dir + "/objects.sqlite";
+  o.objects.threads = 2;
+  absl::StatusOr<std::unique_ptr<server::GrpcServer>> s = server::GrpcServer::Start(o);
+  EXPECT_TRUE(s.ok()) << s.status();
+  return s.ok() ? *std::move(s) : nullptr;
+}
+
+inline std::unique_ptr<client::ObjectClient> Connect(const server::GrpcServer& s) {
+  return client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", s.port()));
+}
+
+// Training views of obj_id (every `stride`-th of the training frames of sim_data.h).
+inline std::vector<v1::TrainingFrame> MiniViews(int obj_id, int stride) {
+  const std::string scene =
+      absl::StrFormat("%s/train/%06d", objects::testing::MiniDataset(), obj_id);
+  absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(scene);
+  EXPECT_TRUE(seq.ok()) << seq.status();
+  std::vector<v1::TrainingFrame> out;
+  if (!seq.ok()) return out;
+  int kept = 0;
+  for (const dataset::Frame& f : seq->frames) {
+    if (!objects::testing::TrainView(obj_id, f.id)) continue;
+    if (kept++ % stride != 0) continue;
+    absl::StatusOr<std::optional<v1::TrainingFrame>> v = client::ToTrainingFrame(f, obj_id);
+    EXPECT_TRUE(v.ok()) << v.status();
+    if (v.ok() && v->has_value()) out.push_back(**v);
+  }
+  return out;
+}
+
+// The held-out views of obj_id as ClassifyImage requests (colour + visible mask).
+inline std::vector<v1::ClassifyImageRequest> HeldOutImages(int obj_id) {
+  const std::string scene =
+      absl::StrFormat("%s/train/%06d", objects::testing::MiniDataset(), obj_id);
+  absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(scene);
+  EXPECT_TRUE(seq.ok()) << seq.status();
+  std::vector<v1::ClassifyImageRequest> out;
+  if (!seq.ok()) return out;
+  for (const dataset::Frame& f : seq->frames) {
+    if (!objects::testing::HeldOutView(obj_id, f.id)) continue;
+    absl::StatusOr<std::optional<v1::TrainingFrame>> v = client::ToTrainingFrame(f, obj_id);
+    if (!v.ok() || !v->has_value()) continue;
+    v1::ClassifyImageRequest& r = out.emplace_back();
+    r.set_color_encoding((*v)->color_encoding());
+    r.set_color((*v)->color());
+    r.set_width((*v)->intrinsics().width());
+    r.set_height((*v)->intrinsics().height());
+    r.set_mask_encoding((*v)->mask_encoding());
+    r.set_mask((*v)->mask());
+  }
+  return out;
+}
+
+// Streams `views` as object obj_id.
+inline absl::StatusOr<v1::Object> Train(client::ObjectClient& c, int obj_id,
+                                        const std::vector<v1::TrainingFrame>& views,
+                                        const std::string& detector = "") {
+  v1::TrainObjectRequest header;
+  header.set_obj_id(obj_id);
+  header.set_display_name(absl::StrCat("object ", obj_id));
+  header.mutable_params()->set_detector(detector);
+  size_t next = 0;
+  return c.TrainObject(header, [&]() -> absl::StatusOr<std::optional<v1::TrainingFrame>> {
+    if (next == views.size()) return std::optional<v1::TrainingFrame>();
+    return std::optional<v1::TrainingFrame>(views[next++]);
+  });
+}
+
+}  // namespace skimap::testing
+
+#endif  // SKIMAP_TESTS_OBJECT_SERVICE_FIXTURE_H_
