@@ -4,6 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
@@ -48,7 +49,7 @@ absl::StatusOr<objects::ObjectDatabaseParams> ApplyTrainingParams(
   if (api.has_resolution()) p.resolution = api.resolution();
   if (api.has_bandwidth()) p.mean_shift.bandwidth = api.bandwidth();
   if (api.has_mask_erosion_px()) p.mask_erosion_px = static_cast<int>(api.mask_erosion_px());
-  if (!api.detector().empty() && api.detector() != base.features.detector) {
+  if (!api.detector().empty() && !absl::EqualsIgnoreCase(api.detector(), base.features.detector)) {
     // Detector defaults follow the new detector unless given.
     if (!api.has_bandwidth()) p.mean_shift.bandwidth = 0;
     p.verify_threshold = 0;

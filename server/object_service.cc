@@ -50,7 +50,7 @@ absl::StatusOr<v1::ListObjectsResponse> ObjectService::ListObjects(
   v1::ListObjectsResponse out;
   for (const ObjectRegistry::ObjectView& v : registry_->List()) {
     const objects::ObjectModel& m = v.object->model;
-    if (m.obj_id <= after) continue;
+    if (m.obj_id <= after || !params) continue;  // !params: every object was just deleted
     if (static_cast<size_t>(out.objects_size()) == limit) {
       out.set_next_page_token(out.objects(out.objects_size() - 1).name());
       break;
