@@ -6,7 +6,8 @@
 // (origin_x, origin_y), so cell (i, j) covers [origin_x + i*res, origin_x + (i+1)*res) in x.
 // A region, when given, is a world-frame rectangle; it is widened to whole cells.
 //
-// Thread safety: readers of the map (safe while it is being written; see skimap.h).
+// Thread safety: readers of the map (safe while it is being written; see skimap.h). With
+// Options::pool they use its threads; do not call them from inside that pool's tasks.
 #ifndef SKIMAP_MAP_QUERIES_H_
 #define SKIMAP_MAP_QUERIES_H_
 
@@ -19,6 +20,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "skimap/skimap.h"
+#include "skimap/thread_pool.h"
 
 namespace skimap {
 
@@ -45,6 +47,7 @@ struct HeightMap {
 struct HeightMapOptions {
   std::optional<Region2D> region;  // default: the map's bounds
   float min_weight = 0;            // voxels with Weight() < min_weight are ignored
+  ThreadPool* pool = nullptr;      // splits the raster's x range over its threads (not owned)
 };
 
 struct OccupancyGrid {
@@ -62,7 +65,8 @@ struct OccupancyGridOptions {
   // ... free when nothing is in the band but the floor was seen: a voxel centre in
   // [floor_min_z, band_min_z); unknown otherwise.
   double floor_min_z = -0.3;
-  float min_weight = 0;  // voxels with Weight() < min_weight are ignored
+  float min_weight = 0;        // voxels with Weight() < min_weight are ignored
+  ThreadPool* pool = nullptr;  // splits the raster's x range over its threads (not owned)
 };
 
 // Cell geometry for a region (or the map's bounds). InvalidArgument for a bad region,
@@ -70,6 +74,25 @@ struct OccupancyGridOptions {
 absl::StatusOr<RasterGeometry> MakeRasterGeometry(const Grid& grid,
                                                   const std::optional<Region2D>& region,
                                                   const std::optional<KeyBox>& bounds);
+
+namespace internal {
+// fn(kx, ky, ZColumn) for every non-empty column of the raster; with a pool, slabs of x run
+// on its threads at once (fn then runs concurrently, for distinct columns).
+template <Voxel V, class Fn>
+void ForEachRasterColumn(const SkiMap<V>& map, const RasterGeometry& g, ThreadPool* pool, Fn&& fn) {
+  const int32_t y1 = g.key_y0 + g.height - 1;
+  auto slab = [&](size_t first, size_t last) {
+    if (first < last) {
+      map.ForEachColumn(g.key_x0 + int32_t(first), g.key_x0 + int32_t(last) - 1, g.key_y0, y1, fn);
+    }
+  };
+  if (pool == nullptr || pool->workers() == 0 || g.width < 64) {
+    slab(0, size_t(g.width));
+  } else {
+    pool->ParallelFor(size_t(g.width), slab);
+  }
+}
+}  // namespace internal
 
 template <Voxel V>
 absl::StatusOr<HeightMap> ComputeHeightMap(const SkiMap<V>& map, const HeightMapOptions& opt) {
@@ -80,22 +103,21 @@ absl::StatusOr<HeightMap> ComputeHeightMap(const SkiMap<V>& map, const HeightMap
                                          std::numeric_limits<float>::quiet_NaN())};
   if (out.heights.empty()) return out;
   const Grid& grid = map.grid();
-  map.ForEachColumn(geo->key_x0, geo->key_x0 + geo->width - 1, geo->key_y0,
-                    geo->key_y0 + geo->height - 1,
-                    [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
-                      std::optional<int32_t> top;
-                      // Usually the highest voxel qualifies: O(log n) instead of a scan.
-                      if (const auto [kz, v] = column.Top(); v->Weight() >= opt.min_weight) {
-                        top = kz;
-                      } else {
-                        column.ForEach([&](int32_t kz, const V& v) {
-                          if (v.Weight() >= opt.min_weight) top = kz;
-                        });
-                      }
-                      if (!top) return;
-                      const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
-                      out.heights[i] = static_cast<float>(grid.AxisCenter(*top, grid.origin().z));
-                    });
+  internal::ForEachRasterColumn(
+      map, *geo, opt.pool, [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
+        std::optional<int32_t> top;
+        // Usually the highest voxel qualifies: O(log n) instead of a scan.
+        if (const auto [kz, v] = column.Top(); v->Weight() >= opt.min_weight) {
+          top = kz;
+        } else {
+          column.ForEach([&](int32_t kz, const V& v) {
+            if (v.Weight() >= opt.min_weight) top = kz;
+          });
+        }
+        if (!top) return;
+        const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
+        out.heights[i] = static_cast<float>(grid.AxisCenter(*top, grid.origin().z));
+      });
   return out;
 }
 
@@ -117,23 +139,22 @@ absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
   grid.CenterRange(opt.band_min_z, opt.band_max_z, grid.origin().z, &band0, &band1);
   grid.CenterRange(opt.floor_min_z, opt.band_min_z, grid.origin().z, &floor0, &floor1);
   if (floor1 >= band0) floor1 = band0 - 1;  // a centre exactly at band_min_z is in the band
-  map.ForEachColumn(geo->key_x0, geo->key_x0 + geo->width - 1, geo->key_y0,
-                    geo->key_y0 + geo->height - 1,
-                    [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
-                      bool occupied = false, floor = false;
-                      column.ForEachInRange(floor0, band1, [&](int32_t kz, const V& v) {
-                        if (v.Weight() < opt.min_weight) return;
-                        if (kz >= band0) {
-                          occupied = true;
-                        } else if (kz <= floor1) {
-                          floor = true;
-                        }
-                      });
-                      const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
-                      out.cells[i] = occupied ? OccupancyGrid::kOccupied
-                                     : floor  ? OccupancyGrid::kFree
-                                              : OccupancyGrid::kUnknown;
-                    });
+  internal::ForEachRasterColumn(
+      map, *geo, opt.pool, [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
+        bool occupied = false, floor = false;
+        column.ForEachInRange(floor0, band1, [&](int32_t kz, const V& v) {
+          if (v.Weight() < opt.min_weight) return;
+          if (kz >= band0) {
+            occupied = true;
+          } else if (kz <= floor1) {
+            floor = true;
+          }
+        });
+        const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
+        out.cells[i] = occupied ? OccupancyGrid::kOccupied
+                       : floor  ? OccupancyGrid::kFree
+                                : OccupancyGrid::kUnknown;
+      });
   return out;
 }
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 namespace skimap {
 namespace {
@@ -92,6 +93,26 @@ TEST(MapQueriesTest, BadRequestsGetClearErrors) {
   ASSERT_TRUE(g.ok());
   EXPECT_EQ(g->geometry.width, 0);
   EXPECT_TRUE(g->cells.empty());
+}
+
+TEST(MapQueriesTest, PoolGivesTheSameRasters) {
+  ThreadPool pool(2);
+  SkiMap<WeightVoxel> map({.resolution = 0.02});
+  std::mt19937 rng(4);
+  std::uniform_int_distribution<int> c(-300, 300), z(-20, 100);
+  for (int i = 0; i < 100000; ++i) map.IntegrateKey({c(rng), c(rng), z(rng)}, {1});
+  auto grid = ComputeOccupancyGrid(map, {});
+  auto grid_pool = ComputeOccupancyGrid(map, {.pool = &pool});
+  ASSERT_TRUE(grid.ok() && grid_pool.ok());
+  EXPECT_EQ(grid->cells, grid_pool->cells);
+  auto hm = ComputeHeightMap(map, {.min_weight = 2});
+  auto hm_pool = ComputeHeightMap(map, {.min_weight = 2, .pool = &pool});
+  ASSERT_TRUE(hm.ok() && hm_pool.ok());
+  ASSERT_EQ(hm->heights.size(), hm_pool->heights.size());
+  for (size_t i = 0; i < hm->heights.size(); ++i) {
+    ASSERT_TRUE(hm->heights[i] == hm_pool->heights[i] ||
+                (std::isnan(hm->heights[i]) && std::isnan(hm_pool->heights[i])));
+  }
 }
 
 TEST(MapQueriesTest, HeightMapGivesTopSurfaceAndNaNForUnknown) {

@@ -36,6 +36,7 @@ TEST(SkiMapConcurrencyTest, ReadersSeeWholeColumnsWhileOneWriterWrites) {
   map.Integrate(floor);
   const size_t per_column = kSide * 4;
 
+  ThreadPool reader_pool(1);  // rasters split over threads while the writer writes
   std::atomic<bool> stop{false};
   std::atomic<int> reads{0};
   std::vector<std::thread> readers;
@@ -52,8 +53,8 @@ TEST(SkiMapConcurrencyTest, ReadersSeeWholeColumnsWhileOneWriterWrites) {
           map.RadiusSearch({0, 0, 0}, 5.0, [&](const VoxelKey& k, const RGBWeightedVoxel&) {
             (k.z >= 10 ? slab_per_x : floor_per_x)[k.x] += 1;
           });
-          EXPECT_TRUE(ComputeOccupancyGrid(map, {}).ok());
-          EXPECT_TRUE(ComputeHeightMap(map, {}).ok());
+          EXPECT_TRUE(ComputeOccupancyGrid(map, {.pool = &reader_pool}).ok());
+          EXPECT_TRUE(ComputeHeightMap(map, {.pool = &reader_pool}).ok());
         } else {
           EXPECT_GT(map.MemoryUsage(), 0u);
           EXPECT_TRUE(map.Bounds().has_value());
