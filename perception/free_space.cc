@@ -1,5 +1,7 @@
 #include "perception/free_space.h"
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -8,41 +10,41 @@
 namespace skimap::perception {
 namespace {
 
-// Appends the keys of the voxels the segment a -> b crosses, a's voxel first and b's last
-// (Amanatides & Woo). Nothing when either end has no key.
-void WalkSegment(const Grid& grid, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                 std::vector<VoxelKey>* keys) {
-  VoxelKey start, end;
-  if (!grid.ToKey(a.x(), a.y(), a.z(), &start) || !grid.ToKey(b.x(), b.y(), b.z(), &end)) return;
+// A ray's part inside the slab, projected onto the xy plane, as column keys.
+struct Segment {
+  double ax, ay, bx, by;  // world metres
+  int32_t kx0, ky0, kx1, ky1;
+};
+
+// Calls mark(kx, ky) for every column the segment crosses, a's first and b's last
+// (Amanatides & Woo in 2D).
+template <class Mark>
+void WalkColumns(const Grid& grid, const Segment& s, Mark&& mark) {
   const double res = grid.resolution();
-  const double origin[3] = {grid.origin().x, grid.origin().y, grid.origin().z};
-  int32_t k[3] = {start.x, start.y, start.z};
-  const int32_t k_end[3] = {end.x, end.y, end.z};
-  const Eigen::Vector3d dir = b - a;
-  int step[3];
-  double t_max[3], t_delta[3];
-  for (int axis = 0; axis < 3; ++axis) {
-    constexpr double kInf = std::numeric_limits<double>::infinity();
+  const double origin[2] = {grid.origin().x, grid.origin().y};
+  const double a[2] = {s.ax, s.ay}, dir[2] = {s.bx - s.ax, s.by - s.ay};
+  int32_t k[2] = {s.kx0, s.ky0};
+  const int32_t k_end[2] = {s.kx1, s.ky1};
+  int step[2];
+  double t_max[2], t_delta[2];
+  for (int axis = 0; axis < 2; ++axis) {
     step[axis] = k_end[axis] > k[axis] ? 1 : k_end[axis] < k[axis] ? -1 : 0;
     if (step[axis] == 0 || dir[axis] == 0) {
-      t_max[axis] = t_delta[axis] = kInf;
+      t_max[axis] = t_delta[axis] = std::numeric_limits<double>::infinity();
       continue;
     }
     const double boundary = origin[axis] + (k[axis] + (step[axis] > 0)) * res;
     t_max[axis] = (boundary - a[axis]) / dir[axis];
     t_delta[axis] = res / std::abs(dir[axis]);
   }
-  keys->push_back(start);
-  int remaining = std::abs(k_end[0] - k[0]) + std::abs(k_end[1] - k[1]) + std::abs(k_end[2] - k[2]);
+  mark(k[0], k[1]);
+  int remaining = std::abs(k_end[0] - k[0]) + std::abs(k_end[1] - k[1]);
   while (remaining-- > 0) {
-    // The nearest boundary among the axes that still have voxels to cross.
-    int axis = -1;
-    for (int i = 0; i < 3; ++i) {
-      if (k[i] != k_end[i] && (axis < 0 || t_max[i] < t_max[axis])) axis = i;
-    }
+    // The nearer boundary among the axes that still have columns to cross.
+    const int axis = k[0] == k_end[0] ? 1 : k[1] == k_end[1] ? 0 : t_max[1] < t_max[0] ? 1 : 0;
     k[axis] += step[axis];
     t_max[axis] += t_delta[axis];
-    keys->push_back({k[0], k[1], k[2]});
+    mark(k[0], k[1]);
   }
 }
 
@@ -70,7 +72,10 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   const Eigen::Vector3d& o = frame.pose.translation;
   const double res = grid.resolution();
   const uint16_t* depth = frame.depth.pixels.data();
-  std::vector<VoxelKey> keys;
+  // Pass 1: the rays' slab segments and the key box they span.
+  std::vector<Segment> segments;
+  int32_t min_x = std::numeric_limits<int32_t>::max(), min_y = min_x;
+  int32_t max_x = std::numeric_limits<int32_t>::min(), max_y = max_x;
   for (int v = 0; v < cam.height; v += stride) {
     for (int u = 0; u < cam.width; u += stride) {
       const uint16_t d = depth[size_t(v) * cam.width + u];
@@ -94,12 +99,39 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
         t1 = std::min(t1, tb);
         if (!(t0 < t1)) continue;
       }
-      const size_t before = keys.size();
-      WalkSegment(grid, o + t0 * (end - o), o + t1 * (end - o), &keys);
-      stats.rays += keys.size() > before;
+      const Eigen::Vector3d a = o + t0 * (end - o), b = o + t1 * (end - o);
+      Segment s{a.x(), a.y(), b.x(), b.y(), 0, 0, 0, 0};
+      if (!grid.AxisToKey(s.ax, grid.origin().x, &s.kx0) ||
+          !grid.AxisToKey(s.ay, grid.origin().y, &s.ky0) ||
+          !grid.AxisToKey(s.bx, grid.origin().x, &s.kx1) ||
+          !grid.AxisToKey(s.by, grid.origin().y, &s.ky1)) {
+        continue;  // leaves the key range
+      }
+      min_x = std::min({min_x, s.kx0, s.kx1}), max_x = std::max({max_x, s.kx0, s.kx1});
+      min_y = std::min({min_y, s.ky0, s.ky1}), max_y = std::max({max_y, s.ky0, s.ky1});
+      segments.push_back(s);
     }
   }
-  stats.voxel_crossings = keys.size();
+  stats.rays = segments.size();
+  if (segments.empty()) return stats;
+  // Pass 2: the columns crossed, once per frame, in a bitmap over the key box.
+  const size_t width = size_t(int64_t{max_x} - min_x + 1),
+               height = size_t(int64_t{max_y} - min_y + 1);
+  std::vector<uint64_t> bits((width * height + 63) / 64, 0);
+  for (const Segment& s : segments) {
+    WalkColumns(grid, s, [&](int32_t kx, int32_t ky) {
+      const size_t i = size_t(ky - min_y) * width + size_t(kx - min_x);
+      bits[i / 64] |= uint64_t{1} << (i % 64);
+    });
+  }
+  std::vector<VoxelKey> keys;
+  for (size_t w = 0; w < bits.size(); ++w) {
+    for (uint64_t word = bits[w]; word != 0; word &= word - 1) {
+      const size_t i = w * 64 + size_t(std::countr_zero(word));
+      keys.push_back({min_x + int32_t(i % width), min_y + int32_t(i / width), 0});
+    }
+  }
+  stats.columns = keys.size();
   // Keys are integers: a unit grid at the origin maps them onto themselves.
   batch->AddPoints(Grid(1.0), keys.size(), [&](size_t i, Point3* p, WeightVoxel* w) {
     *p = {double(keys[i].x), double(keys[i].y), double(keys[i].z)};

@@ -1,4 +1,5 @@
-// Free-space carving: the voxels a depth ray crossed before it hit a surface are free.
+// Free-space carving for the 2D occupancy grid: the (x, y) columns a depth ray crossed
+// inside the grid's z band, before it hit a surface, are free.
 //
 //   VoxelBatch<WeightVoxel> free;
 //   BuildFreeSpaceBatch(frame, free_map.grid(), integration, {.min_z = 0.05, .max_z = 1.5},
@@ -7,11 +8,12 @@
 //
 // For every pixel on the pixel_stride lattice whose depth is valid and inside the
 // integration depth range, the segment from the camera centre to one voxel short of the
-// hit is clipped to the world z slab [min_z, max_z] and walked voxel by voxel (3D DDA,
-// Amanatides & Woo 1987); each voxel it crosses gets WeightVoxel(1) (one per ray). Pixels
-// without depth carve nothing: no return is not evidence of free space. The slab keeps the
-// cost to the part of the ray the 2D occupancy grid uses. Deterministic, like
-// BuildFrameBatch, so pose updates can subtract a frame's free evidence exactly.
+// hit is clipped to the world z slab [min_z, max_z], projected onto the xy plane and walked
+// cell by cell (2D DDA, Amanatides & Woo 1987). Each column crossed by at least one ray of
+// the frame gets WeightVoxel(1) at z key 0: the free volume is a single layer whose weight
+// counts the frames that saw through a column's band. Pixels without depth carve nothing
+// (no return is no evidence). Deterministic, like BuildFrameBatch, so pose updates can
+// subtract a frame's free evidence exactly.
 //
 // Thread safety: free functions; the batch is the caller's.
 #ifndef PERCEPTION_FREE_SPACE_H_
@@ -35,8 +37,8 @@ struct FreeSpaceOptions {
 };
 
 struct FreeSpaceStats {
-  size_t rays = 0;             // rays walked (they reached into the slab)
-  size_t voxel_crossings = 0;  // (ray, voxel) pairs added
+  size_t rays = 0;     // rays walked (they reached into the slab)
+  size_t columns = 0;  // distinct columns the frame's rays crossed
 };
 
 // InvalidArgument naming the bad option ("carve_pixel_stride", "band").

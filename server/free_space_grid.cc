@@ -2,22 +2,17 @@
 
 namespace skimap::server {
 
-void MarkCarvedCells(const FreeVolume& free, double band_min_z, double band_max_z, float min_weight,
-                     OccupancyGrid* grid) {
+void MarkCarvedCells(const FreeVolume& free, float min_weight, OccupancyGrid* grid) {
   const RasterGeometry& geo = grid->geometry;
   if (grid->cells.empty() || free.empty()) return;
-  const Grid& g = free.grid();
-  int32_t band0, band1;
-  g.CenterRange(band_min_z, band_max_z, g.origin().z, &band0, &band1);
   free.ForEachColumn(
       geo.key_x0, geo.key_x0 + geo.width - 1, geo.key_y0, geo.key_y0 + geo.height - 1,
       [&](int32_t kx, int32_t ky, const FreeVolume::ZColumn& column) {
         int8_t& cell = grid->cells[size_t(ky - geo.key_y0) * geo.width + (kx - geo.key_x0)];
         if (cell != OccupancyGrid::kUnknown) return;
         bool crossed = false;
-        column.ForEachInRange(band0, band1, [&](int32_t, const WeightVoxel& v) {
-          crossed = crossed || v.Weight() >= min_weight;
-        });
+        column.ForEach(
+            [&](int32_t, const WeightVoxel& v) { crossed = crossed || v.Weight() >= min_weight; });
         if (crossed) cell = OccupancyGrid::kFree;
       });
 }

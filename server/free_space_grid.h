@@ -9,12 +9,12 @@
 
 namespace skimap::server {
 
-// Marks kFree every kUnknown cell of `grid` whose z band [band_min_z, band_max_z] holds a
-// voxel of `free` with at least `min_weight` crossing rays. Occupied and free cells stay as
-// they are: a surface in the band wins over free evidence, and seen floor is free already.
+// Marks kFree every kUnknown cell of `grid` whose column in `free` (one layer, see
+// perception/free_space.h: frames whose rays crossed the map's band there) has at least
+// `min_weight`. Occupied and free cells stay as they are: a surface in the band wins over
+// free evidence, and seen floor is free already.
 // REQUIRES: grid->geometry was made for free's grid (same resolution and origin).
-void MarkCarvedCells(const FreeVolume& free, double band_min_z, double band_max_z, float min_weight,
-                     OccupancyGrid* grid);
+void MarkCarvedCells(const FreeVolume& free, float min_weight, OccupancyGrid* grid);
 
 }  // namespace skimap::server
 

@@ -39,7 +39,8 @@
 namespace skimap::server {
 
 using Volume = SkiMap<RGBWeightedVoxel>;
-// Free-space evidence (rays that crossed a voxel), for maps with carve_free_space.
+// Free-space evidence for maps with carve_free_space: one layer (z key 0) whose weight
+// counts the frames whose rays crossed a column's band (perception/free_space.h).
 using FreeVolume = SkiMap<WeightVoxel>;
 
 class LiveMap {

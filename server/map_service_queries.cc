@@ -89,14 +89,14 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
     return absl::InvalidArgumentError(
         "band_min_z: need finite floor_min_z <= band_min_z <= band_max_z");
   }
-  // Free evidence needs a ray per voxel, not the surface weight threshold.
-  constexpr float kMinFreeRays = 1;
+  // One frame seeing through a column is evidence enough (not the surface threshold).
+  constexpr float kMinFreeFrames = 1;
   v1::OccupancyGrid out;
   absl::Status status =
       (*map)->ReadWithFreeSpace([&](const Volume& volume, const FreeVolume& free, uint64_t frames) {
         absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
         if (!grid.ok()) return PrefixField(grid.status(), "region");
-        MarkCarvedCells(free, o.band_min_z, o.band_max_z, kMinFreeRays, &*grid);
+        MarkCarvedCells(free, kMinFreeFrames, &*grid);
         FillGeometry(grid->geometry, frames, &out);
         out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
         return absl::OkStatus();

@@ -18,6 +18,7 @@ TEST(MapServiceConcurrencyTest, QueriesSeeWholeFramesWhileFramesStreamIn) {
   server::MapService service({.worker_threads = 2, .queue_capacity = 8});
   v1::CreateMapRequest create;
   create.set_map_id("busy");
+  create.mutable_options()->set_carve_free_space(true);  // the free volume is read and written too
   ASSERT_TRUE(service.CreateMap(create).ok());
   const SyntheticCamera camera{
       .width = 64, .height = 48, .fx = 48, .fy = 48, .cx = 31.5, .cy = 23.5};

@@ -212,5 +212,42 @@ TEST_F(SimSceneTest, HeightMapMatchesTableTopAndFloorWithinOneVoxel) {
   EXPECT_GE(floor_within, 0.97);
 }
 
+TEST_F(SimSceneTest, CarvingKnowsMoreFreeSpaceAndKeepsEverySurface) {
+  v1::CreateMapRequest create;
+  create.set_map_id("carved");
+  create.mutable_options()->set_resolution(kResolution);
+  create.mutable_options()->set_carve_free_space(true);
+  ASSERT_TRUE(client_->CreateMap(create).ok());
+  StreamWithCli(server_->port(), *scene_, "carved");
+  const v1::OccupancyGrid plain = Grid("maps/sim", 0.05, 1.5);
+  const v1::OccupancyGrid carved = Grid("maps/carved", 0.05, 1.5);
+  ASSERT_EQ(plain.data().size(), carved.data().size());
+  const SceneGeometry& g = *geometry_;
+  int kept = 0, newly_free = 0, lost = 0;
+  for (size_t i = 0; i < plain.data().size(); ++i) {
+    const int8_t a = plain.data()[i], b = carved.data()[i];
+    if (a == 100) (b == 100 ? kept : lost)++;  // occupied wins: the same surfaces
+    if (a == -1 && b == 0) ++newly_free;
+    if (a == 0) {
+      EXPECT_EQ(b, 0) << "carving made a free cell unknown or occupied";
+    }
+  }
+  // Inside the walls (more than one cell behind their inner face) only noisy rays that
+  // reached past the surface can carve: few cells.
+  const CellCount in_walls = CountCells(carved, [&](double x, double y) {
+    const double outside =
+        std::max({g.room_min[0] - x, x - g.room_max[0], g.room_min[1] - y, y - g.room_max[1]});
+    return outside > carved.resolution() && outside < 0.1;  // walls are 10 cm thick
+  });
+  std::printf(
+      "carving: %d occupied kept, %d lost, %d unknown cells now free; inside the walls "
+      "%d of %d observed cells free\n",
+      kept, lost, newly_free, in_walls.free, in_walls.observed);
+  EXPECT_EQ(lost, 0);
+  EXPECT_GT(kept, 1000);
+  EXPECT_GT(newly_free, 200);
+  EXPECT_LE(in_walls.free, in_walls.observed / 10);
+}
+
 }  // namespace
 }  // namespace skimap::testing
