@@ -79,6 +79,7 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   const MapConfig& c = (*map)->config();
   OccupancyGridOptions o;
   o.region = *region;
+  o.pool = pool_.get();  // shared with integration; ParallelFor calls take turns
   o.band_min_z = request.has_band_min_z() ? request.band_min_z() : c.band_min_z;
   o.band_max_z = request.has_band_max_z() ? request.band_max_z() : c.band_max_z;
   o.floor_min_z = request.has_floor_min_z() ? request.floor_min_z() : c.floor_min_z;
@@ -113,6 +114,7 @@ absl::StatusOr<v1::HeightMap> MapService::GetHeightMap(
   if (!region.ok()) return region.status();
   HeightMapOptions o;
   o.region = *region;
+  o.pool = pool_.get();
   o.min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight()
                                                 : (*map)->config().min_voxel_weight;
   v1::HeightMap out;
