@@ -61,16 +61,7 @@ absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string&
   const double seconds = std::floor(f.timestamp);
   out.mutable_timestamp()->set_seconds(static_cast<int64_t>(seconds));
   out.mutable_timestamp()->set_nanos(static_cast<int32_t>((f.timestamp - seconds) * 1e9));
-  const Eigen::Quaterniond q(f.T_wc.rotation());
-  const Eigen::Vector3d t = f.T_wc.translation();
-  v1::Pose* pose = out.mutable_pose();
-  pose->mutable_rotation()->set_w(q.w());
-  pose->mutable_rotation()->set_x(q.x());
-  pose->mutable_rotation()->set_y(q.y());
-  pose->mutable_rotation()->set_z(q.z());
-  pose->mutable_translation()->set_x(t.x());
-  pose->mutable_translation()->set_y(t.y());
-  pose->mutable_translation()->set_z(t.z());
+  ToApiPose(f.T_wc, out.mutable_pose());
   v1::CameraIntrinsics* k = out.mutable_intrinsics();
   k->set_fx(f.K.fx);
   k->set_fy(f.K.fy);
@@ -92,6 +83,18 @@ absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string&
     out.set_color(*std::move(color));
   }
   return out;
+}
+
+void ToApiPose(const Eigen::Isometry3d& T, v1::Pose* pose) {
+  const Eigen::Quaterniond q(T.rotation());
+  const Eigen::Vector3d t = T.translation();
+  pose->mutable_rotation()->set_w(q.w());
+  pose->mutable_rotation()->set_x(q.x());
+  pose->mutable_rotation()->set_y(q.y());
+  pose->mutable_rotation()->set_z(q.z());
+  pose->mutable_translation()->set_x(t.x());
+  pose->mutable_translation()->set_y(t.y());
+  pose->mutable_translation()->set_z(t.z());
 }
 
 }  // namespace skimap::client

@@ -5,6 +5,7 @@
 #ifndef CLIENT_DATASET_FRAMES_H_
 #define CLIENT_DATASET_FRAMES_H_
 
+#include <Eigen/Geometry>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,9 @@ absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string&
 // FailedPrecondition if the frame has no pose or no depth image; NotFound for a missing file.
 absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& frame, const std::string& map_name,
                                      uint64_t sequence);
+
+// Writes a rigid transform as an API pose (unit quaternion w, x, y, z + translation, m).
+void ToApiPose(const Eigen::Isometry3d& T, v1::Pose* pose);
 
 }  // namespace skimap::client
 

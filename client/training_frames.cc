@@ -64,16 +64,7 @@ absl::StatusOr<std::optional<v1::TrainingFrame>> ToTrainingFrame(const dataset::
   out.set_color(std::move(*api->mutable_color()));
   out.set_mask_encoding(v1::MASK_ENCODING_PNG);
   out.set_mask(mask.str());
-  const Eigen::Quaterniond q(a->T_m2c.rotation());
-  const Eigen::Vector3d t = a->T_m2c.translation();
-  v1::Pose* pose = out.mutable_object_pose();
-  pose->mutable_rotation()->set_w(q.w());
-  pose->mutable_rotation()->set_x(q.x());
-  pose->mutable_rotation()->set_y(q.y());
-  pose->mutable_rotation()->set_z(q.z());
-  pose->mutable_translation()->set_x(t.x());
-  pose->mutable_translation()->set_y(t.y());
-  pose->mutable_translation()->set_z(t.z());
+  ToApiPose(a->T_m2c, out.mutable_object_pose());
   return out;
 }
 

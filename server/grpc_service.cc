@@ -12,14 +12,6 @@ namespace {
 using grpc::CallbackServerContext;
 using grpc::ServerUnaryReactor;
 
-template <class T>
-ServerUnaryReactor* Reply(CallbackServerContext* ctx, absl::StatusOr<T> result, T* response) {
-  ServerUnaryReactor* reactor = ctx->DefaultReactor();
-  if (result.ok()) *response = *std::move(result);
-  reactor->Finish(ToGrpcStatus(result.status()));
-  return reactor;
-}
-
 // StreamVoxels: one GetVoxels page per write until the last page.
 class VoxelPageWriter final : public grpc::ServerWriteReactor<v1::GetVoxelsResponse> {
  public:

@@ -12,14 +12,6 @@ namespace {
 using grpc::CallbackServerContext;
 using grpc::ServerUnaryReactor;
 
-template <class T>
-ServerUnaryReactor* Reply(CallbackServerContext* ctx, absl::StatusOr<T> result, T* response) {
-  ServerUnaryReactor* reactor = ctx->DefaultReactor();
-  if (result.ok()) *response = *std::move(result);
-  reactor->Finish(ToGrpcStatus(result.status()));
-  return reactor;
-}
-
 // TrainObject: one message read at a time; its frame is fused on the core's training
 // worker and the next read starts from that worker's callback. The reactor is deleted in
 // OnDone, which gRPC runs only after Finish; every core callback runs before Finish.
