@@ -14,22 +14,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
+#include "tests/common/free_port.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {
-
-int FreePort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
-  socklen_t len = sizeof addr;
-  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-  close(fd);
-  return ntohs(addr.sin_port);
-}
 
 TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
   const std::string dir =

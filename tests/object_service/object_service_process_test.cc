@@ -11,22 +11,11 @@
 #include <filesystem>
 
 #include "absl/strings/str_cat.h"
+#include "tests/common/free_port.h"
 #include "tests/objects/sim_data.h"
 
 namespace skimap::testing {
 namespace {
-
-int FreePort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
-  socklen_t len = sizeof addr;
-  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-  close(fd);
-  return ntohs(addr.sin_port);
-}
 
 pid_t StartSkimapd(const std::string& address, const std::string& data_dir) {
   const pid_t pid = fork();
