@@ -9,12 +9,16 @@ absl::Status FromGrpcStatus(const grpc::Status& s) {
   return absl::Status(static_cast<absl::StatusCode>(s.error_code()), s.error_message());
 }
 
-std::unique_ptr<MapClient> MapClient::Connect(const std::string& target, const Options& options) {
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int max_message_bytes) {
   grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(options.max_message_bytes);
-  args.SetMaxSendMessageSize(options.max_message_bytes);
-  auto channel = grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
-  return std::unique_ptr<MapClient>(new MapClient(std::move(channel), options));
+  args.SetMaxReceiveMessageSize(max_message_bytes);
+  args.SetMaxSendMessageSize(max_message_bytes);
+  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
+}
+
+std::unique_ptr<MapClient> MapClient::Connect(const std::string& target, const Options& options) {
+  return std::unique_ptr<MapClient>(
+      new MapClient(MakeChannel(target, options.max_message_bytes), options));
 }
 
 MapClient::MapClient(std::shared_ptr<grpc::Channel> channel, const Options& options)

@@ -73,6 +73,10 @@ class MapClient {
 // grpc::Status -> absl::Status (same codes).
 absl::Status FromGrpcStatus(const grpc::Status& status);
 
+// An insecure channel to `target` (host:port) allowing messages up to `max_message_bytes`
+// each way; shared by MapClient and ObjectClient.
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int max_message_bytes);
+
 }  // namespace skimap::client
 
 #endif  // CLIENT_MAP_CLIENT_H_

@@ -1,17 +1,14 @@
 #include "client/object_client.h"
 
 #include "absl/time/clock.h"
-#include "client/map_client.h"  // FromGrpcStatus
+#include "client/map_client.h"  // FromGrpcStatus, MakeChannel
 
 namespace skimap::client {
 
 std::unique_ptr<ObjectClient> ObjectClient::Connect(const std::string& target,
                                                     const Options& options) {
-  grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(options.max_message_bytes);
-  args.SetMaxSendMessageSize(options.max_message_bytes);
-  auto channel = grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
-  return std::unique_ptr<ObjectClient>(new ObjectClient(std::move(channel), options));
+  return std::unique_ptr<ObjectClient>(
+      new ObjectClient(MakeChannel(target, options.max_message_bytes), options));
 }
 
 ObjectClient::ObjectClient(std::shared_ptr<grpc::Channel> channel, const Options& options)
