@@ -326,7 +326,103 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
   int32_t x0, x1;
   grid_.CenterRange(c.x - radius, c.x + radius, o.x, &x0, &x1);
   if (x0 > x1) return;
+  // The sphere's columns are searched kGroup at a time, in three interleaved passes whose
+  // cache misses overlap (a map's columns are far apart in memory): the y-list descents of
+  // the group (LowerBoundMany); the walks over each column's y range, a node of each column
+  // in turn; the z-list descents of every (x, y) row the sphere cuts. The rows are then
+  // scanned in (x, y, z) order.
+  constexpr size_t kGroup = 16;
+  using YList = typename Column::YList;
+  using YNode = typename YList::Node;
+  struct Col {
+    typename YList::Search search;  // first y >= y0
+    int32_t x, y1;
+    double rem_x;  // r² - dx²
+    size_t rows_begin, rows_end;
+  };
+  struct Row {
+    typename ZList::Search search;  // first z >= z0
+    int32_t y, z1;
+    double rem_xy;  // r² - dx² - dy²
+  };
+  Col cols[kGroup];
+  std::vector<Row> rows;
+  auto run_group = [&](size_t n) {
+    YList::LowerBoundMany(
+        cols, n, [](Col & col) -> auto& { return col.search; });
+    // Each column's rows land in its own slice of `rows`, in y order.
+    size_t capacity = 0;
+    const YNode* at[kGroup];
+    size_t walking[kGroup];
+    size_t width = 0;
+    for (size_t i = 0; i < n; ++i) {
+      Col& col = cols[i];
+      col.rows_begin = col.rows_end = capacity;
+      capacity += std::min<size_t>(static_cast<size_t>(col.y1 - col.search.key) + 1,
+                                   col.search.list->size());
+      at[i] = col.search.result;
+      walking[width++] = i;
+    }
+    if (rows.size() < capacity) rows.resize(capacity);
+    while (width > 0) {
+      for (size_t j = 0; j < width;) {
+        Col& col = cols[walking[j]];
+        const YNode* yn = at[walking[j]];
+        if (yn == nullptr || yn->key > col.y1) {
+          walking[j] = walking[--width];
+          continue;
+        }
+        at[walking[j]] = yn->next[0];
+        __builtin_prefetch(yn->next[0]);
+        ++j;
+        const double dy = grid_.AxisCenter(yn->key, o.y) - c.y;
+        const double rem_xy = col.rem_x - dy * dy;
+        if (rem_xy < 0) continue;
+        const double sz = std::sqrt(rem_xy);
+        int32_t z0, z1;
+        grid_.CenterRange(c.z - sz, c.z + sz, o.z, &z0, &z1);
+        if (z0 > z1) continue;
+        yn->value.PrefetchHead();
+        rows[col.rows_end++] = {{&yn->value, z0, nullptr}, yn->key, z1, rem_xy};
+      }
+    }
+    // Close the gaps between the slices, then scan every row of the group.
+    size_t nrows = 0;
+    for (size_t i = 0; i < n; ++i) {
+      Col& col = cols[i];
+      std::copy(rows.begin() + col.rows_begin, rows.begin() + col.rows_end, rows.begin() + nrows);
+      col.rows_end = nrows + (col.rows_end - col.rows_begin);
+      col.rows_begin = nrows;
+      nrows = col.rows_end;
+    }
+    ZList::LowerBoundMany(
+        rows.data(), nrows, [](Row & row) -> auto& { return row.search; });
+    constexpr size_t kAhead = 4;  // rows whose second node is prefetched ahead of the scan
+    for (size_t r = 0; r < std::min(kAhead, nrows); ++r) {
+      if (rows[r].search.result != nullptr) __builtin_prefetch(rows[r].search.result->next[0]);
+    }
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t r = cols[i].rows_begin; r < cols[i].rows_end; ++r) {
+        if (r + kAhead < nrows && rows[r + kAhead].search.result != nullptr) {
+          __builtin_prefetch(rows[r + kAhead].search.result->next[0]);
+        }
+        const Row& row = rows[r];
+        for (const ZNode* zn = row.search.result; zn != nullptr && zn->key <= row.z1;
+             zn = zn->next[0]) {
+          const double dz = grid_.AxisCenter(zn->key, o.z) - c.z;
+          if (dz * dz <= row.rem_xy) fn(VoxelKey{cols[i].x, row.y, zn->key}, zn->value);
+        }
+      }
+    }
+  };
   ReaderLock x_lock(&x_mu_);
+  size_t n = 0;
+  const Column* locked[kGroup];
+  auto flush = [&]() ABSL_NO_THREAD_SAFETY_ANALYSIS {
+    run_group(n);
+    for (size_t i = n; i-- > 0;) locked[i]->mu.ReaderUnlock();
+    n = 0;
+  };
   for (auto* xn = xs_.LowerBound(x0); xn != nullptr && xn->key <= x1; xn = xn->next[0]) {
     const double dx = grid_.AxisCenter(xn->key, o.x) - c.x;
     const double rem_x = r2 - dx * dx;
@@ -336,21 +432,14 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
     grid_.CenterRange(c.y - sy, c.y + sy, o.y, &y0, &y1);
     if (y0 > y1) continue;
     const Column& column = *xn->value;
-    ReaderLock lock(&column.mu);
-    for (auto* yn = column.ys.LowerBound(y0); yn != nullptr && yn->key <= y1; yn = yn->next[0]) {
-      const double dy = grid_.AxisCenter(yn->key, o.y) - c.y;
-      const double rem_xy = rem_x - dy * dy;
-      if (rem_xy < 0) continue;
-      const double sz = std::sqrt(rem_xy);
-      int32_t z0, z1;
-      grid_.CenterRange(c.z - sz, c.z + sz, o.z, &z0, &z1);
-      for (const ZNode* zn = yn->value.LowerBound(z0); zn != nullptr && zn->key <= z1;
-           zn = zn->next[0]) {
-        const double dz = grid_.AxisCenter(zn->key, o.z) - c.z;
-        if (dz * dz <= rem_xy) fn(VoxelKey{xn->key, yn->key, zn->key}, zn->value);
-      }
-    }
+    // Shared locks of a group are taken in ascending x; writers never hold a column lock
+    // while waiting for another, so holding several cannot deadlock.
+    column.mu.ReaderLock();
+    locked[n] = &column;
+    cols[n++] = {{&column.ys, y0, nullptr}, xn->key, y1, rem_x, 0, 0};
+    if (n == kGroup) flush();
   }
+  if (n > 0) flush();
 }
 
 template <Voxel V>

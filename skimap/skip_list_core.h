@@ -50,17 +50,29 @@ class SkipListArena {
         max_height_(options.max_height < 1                    ? 1
                     : options.max_height > kMaxSkipListHeight ? kMaxSkipListHeight
                                                               : options.max_height),
-        threshold_(ProbabilityToThreshold(options.promotion_probability)) {}
+        threshold_(ProbabilityToThreshold(options.promotion_probability)) {
+    // min_size_[h]: smallest list size at which a new node may be taller than h, i.e.
+    // size + 1 >= (1/p)^h.
+    const double p = options.promotion_probability;
+    double span = 1;
+    for (int h = 0; h < kMaxSkipListHeight; ++h) {
+      min_size_[h] = span - 1 >= UINT32_MAX ? UINT32_MAX : static_cast<uint32_t>(span - 1);
+      span = p > 0 && p < 1 ? span / p : (p >= 1 ? 1 : 4294967296.0);
+    }
+  }
 
   NodePool& pool() { return pool_; }
   const NodePool& pool() const { return pool_; }
   int max_height() const { return max_height_; }
 
-  // Height for a new node: geometric with the promotion probability, drawn from this
-  // arena's xorshift RNG (deterministic for a given seed and operation sequence).
-  int RandomHeight() {
+  // Height for a new node of a list now holding `size` nodes: geometric with the promotion
+  // probability, drawn from this arena's xorshift RNG (deterministic for a given seed and
+  // operation sequence), and at most 1 + log_{1/p}(size + 1) ("fix the dice", Pugh 1990):
+  // a level is worth having only once the list is long enough to skip along it. Short
+  // lists (most z columns) thus stay one level high, with their head inline.
+  int RandomHeight(uint32_t size) {
     int h = 1;
-    while (h < max_height_ && NextRandom() < threshold_) ++h;
+    while (h < max_height_ && size >= min_size_[h] && NextRandom() < threshold_) ++h;
     return h;
   }
 
@@ -81,6 +93,7 @@ class SkipListArena {
   uint32_t rng_;
   int max_height_;
   uint32_t threshold_;
+  uint32_t min_size_[kMaxSkipListHeight];
 };
 
 template <class K, class V>
@@ -139,6 +152,79 @@ class SkipListCore {
     return links[0];
   }
 
+  // One search of LowerBoundMany: the first node of *list with key >= `key` goes to
+  // `result`.
+  struct Search {
+    const SkipListCore* list;
+    K key;
+    Node* result;
+  };
+
+  // Runs the searches proj(items[i]) (a Search&) for i < n interleaved: a step of each live
+  // search in turn, each step prefetching the node its next step reads, so that the cache
+  // misses of different lists overlap instead of adding up. Same results as LowerBound on
+  // each; worth it when the lists are far apart in memory (a map's columns).
+  template <class T, class Proj>
+  static void LowerBoundMany(T* items, size_t n, Proj proj) {
+    constexpr int kWidth = 8;  // searches in flight; more do not help (memory parallelism)
+    struct Cursor {
+      Node* const* links;
+      int level;
+      bool tower_read;  // false: `links` is a head tower whose line is being prefetched
+      Search* search;
+    };
+    Cursor live[kWidth];
+    int width = 0;
+    size_t next = 0;
+    // Starts the next non-trivial search in `c`; false when none is left.
+    auto start = [&](Cursor& c) {
+      while (next < n) {
+        Search& s = proj(items[next++]);
+        s.result = nullptr;
+        if (s.list->head_capacity_ == 0) continue;
+        c = {s.list->Links(nullptr), s.list->height_ - 1, s.list->head_capacity_ <= 1, &s};
+        if (c.tower_read) {
+          __builtin_prefetch(c.links[c.level]);  // the inline head is in the (cached) list
+        } else {
+          __builtin_prefetch(&c.links[c.level]);
+        }
+        return true;
+      }
+      return false;
+    };
+    while (width < kWidth && start(live[width])) ++width;
+    while (width > 0) {
+      for (int j = 0; j < width;) {
+        Cursor& c = live[j];
+        Node* node = c.links[c.level];
+        if (!c.tower_read) {
+          c.tower_read = true;
+        } else if (node != nullptr && node->key < c.search->key) {
+          c.links = node->next;  // move right
+        } else if (c.level > 0) {
+          --c.level;  // move down
+        } else {
+          c.search->result = node;
+          if (start(c)) {
+            ++j;
+          } else {
+            c = live[--width];  // j now holds the last live search
+          }
+          continue;
+        }
+        __builtin_prefetch(c.links[c.level]);
+        ++j;
+      }
+    }
+  }
+
+  // Starts loading what a search reads first (the head tower, or the first node when the
+  // head is inline) into the cache.
+  void PrefetchHead() const {
+    __builtin_prefetch(head_capacity_ > 1 ? static_cast<const void*>(head_.tower)
+                                          : static_cast<const void*>(head_.first));
+  }
+
   // Node with exactly `key`, or nullptr.
   Node* Find(const K& key) const {
     Node* n = LowerBound(key);
@@ -179,7 +265,7 @@ class SkipListCore {
       return n;
     }
     *inserted = true;
-    const int h = arena.RandomHeight();
+    const int h = arena.RandomHeight(size_);
     if (h > head_capacity_) GrowHead(arena, h);
     for (int l = height_; l < h; ++l) finger.preds[l] = nullptr;
     if (h > height_) height_ = static_cast<uint8_t>(h);

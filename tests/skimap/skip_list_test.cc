@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <map>
 #include <random>
 #include <string>
@@ -144,6 +146,64 @@ TEST(SkipListCoreTest, FingerWalksAscendingKeys) {
   for (auto* n = core.First(); n != nullptr; n = n->next[0]) EXPECT_EQ(n->key % 4, 2);
   core.Clear(arena);
   EXPECT_EQ(arena.pool().BytesInUse(), 0u);
+}
+
+TEST(SkipListCoreTest, ShortListsStayOneLevelHigh) {
+  // A node is never taller than the list is long enough to use (fix the dice): the first
+  // node of a list always has height 1, so its head stays inline.
+  SkipListArena arena({.max_height = 16, .promotion_probability = 0.5});
+  for (int round = 0; round < 200; ++round) {
+    SkipListCore<int, int> core;
+    SkipListCore<int, int>::Finger finger;
+    bool inserted = false;
+    core.FindOrInsert(arena, finger, 1, &inserted);
+    EXPECT_EQ(core.height(), 1);  // size 0 at insertion: height 1, inline head
+    core.Clear(arena);
+  }
+  EXPECT_EQ(arena.pool().BytesInUse(), 0u);
+  SkipListCore<int, int> core;
+  SkipListCore<int, int>::Finger finger;
+  bool inserted = false;
+  for (int k = 0; k < 4096; ++k) {
+    core.FindOrInsert(arena, finger, k, &inserted);
+    // A list of n nodes is at most 1 + log2(n) levels high.
+    EXPECT_LE(core.height(), 1 + static_cast<int>(std::log2(core.size())));
+  }
+  EXPECT_GE(core.height(), 6);  // and long lists still grow levels
+  core.Clear(arena);
+}
+
+TEST(SkipListCoreTest, LowerBoundManyMatchesLowerBound) {
+  using Core = SkipListCore<int, int>;
+  SkipListArena arena({.max_height = 12, .promotion_probability = 0.25, .seed = 9});
+  std::mt19937 rng(5);
+  std::vector<Core> lists(40);
+  for (size_t i = 0; i < lists.size(); ++i) {
+    Core::Finger finger;
+    bool inserted = false;
+    const int n = i % 5 == 0 ? 0 : static_cast<int>(rng() % (i < 20 ? 4 : 600));
+    std::vector<int> keys(n);
+    for (int& k : keys) k = static_cast<int>(rng() % 2000) - 1000;
+    std::sort(keys.begin(), keys.end());
+    for (int k : keys) lists[i].FindOrInsert(arena, finger, k, &inserted);
+  }
+  struct Item {
+    Core::Search search;
+    int tag;
+  };
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<Item> items;
+    for (int q = 0; q < 100; ++q) {
+      const Core& list = lists[rng() % lists.size()];
+      items.push_back({{&list, static_cast<int>(rng() % 2400) - 1200, nullptr}, q});
+    }
+    Core::LowerBoundMany(
+        items.data(), items.size(), [](Item & it) -> auto& { return it.search; });
+    for (const Item& it : items) {
+      EXPECT_EQ(it.search.result, it.search.list->LowerBound(it.search.key)) << it.tag;
+    }
+  }
+  for (Core& list : lists) list.Clear(arena);
 }
 
 }  // namespace
