@@ -217,7 +217,9 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
   std::vector<int32_t> emptied;
   for (const Run& r : runs) {
     total += r.stats;
-    if (r.column == nullptr || r.stats.voxels_removed == 0) continue;
+    // A column may be empty after removals, or when it is new and all its data was empty.
+    if (r.column == nullptr || (r.stats.voxels_removed == 0 && r.stats.voxels_created > 0))
+      continue;
     ReaderLock lock(&r.column->mu);
     if (r.column->ys.empty()) emptied.push_back(r.x);
   }
@@ -236,14 +238,51 @@ WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBa
   using YList = typename Column::YList;
   WriteStats s;
   typename YList::Finger yf;
+  // A new column (every column of a first frame) is built by appending: the batch is sorted,
+  // so no search is needed, and its nodes come from one chunk reserved up front.
+  const bool new_column = integrate && c.ys.empty();
+  if (new_column) {
+    size_t ys = 0;
+    for (auto* it = begin; it != end; ++it) ys += it == begin || it->key.y != it[-1].key.y;
+    // Nodes of height 1, plus the towers of the taller ones (1/3 pointer per node at p=1/4).
+    const size_t per_node = sizeof(void*) / 2;
+    c.arena.pool().Reserve(static_cast<size_t>(end - begin) * (ZList::NodeBytes(1) + per_node) +
+                           ys * (YList::NodeBytes(1) + per_node));
+  }
+  // Appends the run [it, run_end) to the empty z list of y node `yn` (made on first need
+  // by make_yn when null); items with empty data are skipped, as V() += empty stays empty.
+  auto append_run = [&](const typename VoxelBatch<V>::Item*& it,
+                        const typename VoxelBatch<V>::Item* run_end, typename YList::Node* yn,
+                        auto make_yn) {
+    typename ZList::Finger zf;
+    for (; it != run_end; ++it) {
+      ++s.voxels_touched;
+      if (it->data.IsEmpty()) continue;
+      if (yn == nullptr) yn = make_yn();
+      ZNode* zn = yn->value.Append(c.arena, zf, it->key.z);
+      zn->value += it->data;
+      c.heap_bytes += zn->value.HeapBytes();
+      ++s.voxels_created;
+    }
+    return yn;
+  };
   for (auto* it = begin; it != end;) {
     const int32_t y = it->key.y;
     auto* run_end = it;
     while (run_end != end && run_end->key.y == y) ++run_end;
+    if (new_column) {
+      append_run(it, run_end, nullptr, [&] { return c.ys.Append(c.arena, yf, y); });
+      continue;
+    }
     typename YList::Node* yn;
     if (integrate) {
       bool inserted = false;  // a new y entry starts with an empty z list
       yn = c.ys.FindOrInsert(c.arena, yf, y, &inserted);
+      if (inserted) {
+        append_run(it, run_end, yn, [] { return nullptr; });
+        if (yn->value.empty()) c.ys.Erase(c.arena, yf, y);
+        continue;
+      }
     } else {
       yn = c.ys.Seek(yf, y);
       if (yn == nullptr || yn->key != y) {

@@ -5,6 +5,8 @@
 // the map (its memory reused). Weight() is the evidence the queries threshold on. Encode /
 // Decode give the voxel's payload in the map file format (docs/formats.md), identified by
 // kTypeId; HeapBytes() is memory the voxel owns outside itself, for memory accounting.
+// A default-constructed voxel is empty and the identity of fusion: V() += d equals d (so
+// V() += d is empty exactly when d is).
 #ifndef SKIMAP_VOXEL_H_
 #define SKIMAP_VOXEL_H_
 

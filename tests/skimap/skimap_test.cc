@@ -164,6 +164,39 @@ TEST(SkiMapTest, RandomOperationsMatchReferenceModel) {
   }
 }
 
+TEST(SkiMapTest, EmptyDataCreatesNoVoxels) {
+  // Zero-weight observations in a new column, in a new (x, y) of an existing column and
+  // next to real ones: only the real ones become voxels.
+  SkiMap<WeightVoxel> map({.resolution = 0.1});
+  const size_t empty_bytes = map.MemoryUsage();
+  VoxelBatch<WeightVoxel> first;
+  first.AddKey({0, 0, 0}, WeightVoxel{0});
+  first.AddKey({0, 1, 0}, WeightVoxel{1});
+  first.AddKey({0, 1, 1}, WeightVoxel{0});
+  first.AddKey({1, 0, 0}, WeightVoxel{0});
+  first.Finalize();
+  EXPECT_EQ(map.Integrate(first).voxels_created, 1u);
+  VoxelBatch<WeightVoxel> second;
+  second.AddKey({0, 5, 0}, WeightVoxel{0});
+  second.AddKey({0, 6, 0}, WeightVoxel{2});
+  second.AddKey({0, 7, 3}, WeightVoxel{0});
+  second.Finalize();
+  map.Integrate(second);
+  std::vector<VoxelKey> keys;
+  map.ForEach([&](const VoxelKey& k, const WeightVoxel& v) {
+    EXPECT_FALSE(v.IsEmpty());
+    keys.push_back(k);
+  });
+  EXPECT_EQ(keys, (std::vector<VoxelKey>{{0, 1, 0}, {0, 6, 0}}));
+  EXPECT_EQ(map.size(), 2u);
+  ASSERT_TRUE(map.Bounds().has_value());
+  EXPECT_EQ(map.Bounds()->max.y, 6);
+  map.DeintegrateKey({0, 1, 0}, WeightVoxel{1});
+  map.DeintegrateKey({0, 6, 0}, WeightVoxel{2});
+  EXPECT_TRUE(map.empty());
+  EXPECT_EQ(map.MemoryUsage(), empty_bytes);
+}
+
 TEST(SkiMapTest, FindReturnsTheFusedValue) {
   SkiMap<RGBWeightedVoxel> map({.resolution = 0.02});
   ASSERT_TRUE(map.Integrate({0.011, -0.5, 1.0}, RGBWeightedVoxel(200, 100, 0, 1)).ok());
