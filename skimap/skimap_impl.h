@@ -370,7 +370,7 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
   // the group (LowerBoundMany); the walks over each column's y range, a node of each column
   // in turn; the z-list descents of every (x, y) row the sphere cuts. The rows are then
   // scanned in (x, y, z) order.
-  constexpr size_t kGroup = 16;
+  constexpr size_t kGroup = 32;
   using YList = typename Column::YList;
   using YNode = typename YList::Node;
   struct Col {
