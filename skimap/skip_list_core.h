@@ -166,7 +166,7 @@ class SkipListCore {
   // each; worth it when the lists are far apart in memory (a map's columns).
   template <class T, class Proj>
   static void LowerBoundMany(T* items, size_t n, Proj proj) {
-    constexpr int kWidth = 8;  // searches in flight; more do not help (memory parallelism)
+    constexpr int kWidth = 16;  // searches in flight (measured: 8 < 12 ≈ 16 on this machine)
     struct Cursor {
       Node* const* links;
       int level;
