@@ -455,11 +455,19 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
     }
   };
   ReaderLock x_lock(&x_mu_);
+  // The group's shared column locks; released by flush() or, should `fn` throw, here.
+  struct GroupLocks {
+    const Column* columns[kGroup];
+    size_t n = 0;
+    void Release() ABSL_NO_THREAD_SAFETY_ANALYSIS {
+      for (; n > 0; --n) columns[n - 1]->mu.ReaderUnlock();
+    }
+    ~GroupLocks() { Release(); }
+  } locks;
   size_t n = 0;
-  const Column* locked[kGroup];
-  auto flush = [&]() ABSL_NO_THREAD_SAFETY_ANALYSIS {
+  auto flush = [&] {
     run_group(n);
-    for (size_t i = n; i-- > 0;) locked[i]->mu.ReaderUnlock();
+    locks.Release();
     n = 0;
   };
   for (auto* xn = xs_.LowerBound(x0); xn != nullptr && xn->key <= x1; xn = xn->next[0]) {
@@ -474,7 +482,7 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
     // Shared locks of a group are taken in ascending x; writers never hold a column lock
     // while waiting for another, so holding several cannot deadlock.
     column.mu.ReaderLock();
-    locked[n] = &column;
+    locks.columns[locks.n++] = &column;
     cols[n++] = {{&column.ys, y0, nullptr}, xn->key, y1, rem_x, 0, 0};
     if (n == kGroup) flush();
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "skimap/label_voxel.h"
@@ -195,6 +196,19 @@ TEST(SkiMapTest, EmptyDataCreatesNoVoxels) {
   map.DeintegrateKey({0, 6, 0}, WeightVoxel{2});
   EXPECT_TRUE(map.empty());
   EXPECT_EQ(map.MemoryUsage(), empty_bytes);
+}
+
+TEST(SkiMapTest, ThrowingRadiusCallbackReleasesTheLocks) {
+  SkiMap<WeightVoxel> map({.resolution = 0.1});
+  for (int x = -20; x <= 20; ++x) map.IntegrateKey({x, 0, 0}, WeightVoxel{1});
+  EXPECT_THROW(map.RadiusSearch({0, 0, 0}, 3.0,
+                                [](const VoxelKey& k, const WeightVoxel&) {
+                                  if (k.x == 5) throw std::runtime_error("stop");
+                                }),
+               std::runtime_error);
+  // A writer needs every column lock back (it would block forever otherwise).
+  for (int x = -20; x <= 20; ++x) map.DeintegrateKey({x, 0, 0}, WeightVoxel{1});
+  EXPECT_TRUE(map.empty());
 }
 
 TEST(SkiMapTest, FindReturnsTheFusedValue) {
