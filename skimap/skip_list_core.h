@@ -37,6 +37,7 @@ struct SkipListOptions {
   int max_height = 16;
   // Probability that a node reaches the next level, in [0, 1]. Smaller values save
   // memory (1/(1-p) forward pointers per node on average) at the cost of longer searches.
+  // A node is never taller than 1 + log_{1/p}(size + 1) of the list it joins.
   double promotion_probability = 0.25;
   // Seed of the RNG that draws node heights.
   uint32_t seed = 0x2545F491u;
