@@ -387,8 +387,8 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
   Col cols[kGroup];
   std::vector<Row> rows;
   auto run_group = [&](size_t n) {
-    YList::LowerBoundMany(
-        cols, n, [](Col & col) -> auto& { return col.search; });
+    auto col_search = [](Col& col) -> typename YList::Search& { return col.search; };
+    YList::LowerBoundMany(cols, n, col_search);
     // Each column's rows land in its own slice of `rows`, in y order.
     size_t capacity = 0;
     const YNode* at[kGroup];
@@ -434,8 +434,8 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
       col.rows_begin = nrows;
       nrows = col.rows_end;
     }
-    ZList::LowerBoundMany(
-        rows.data(), nrows, [](Row & row) -> auto& { return row.search; });
+    auto row_search = [](Row& row) -> typename ZList::Search& { return row.search; };
+    ZList::LowerBoundMany(rows.data(), nrows, row_search);
     constexpr size_t kAhead = 4;  // rows whose second node is prefetched ahead of the scan
     for (size_t r = 0; r < std::min(kAhead, nrows); ++r) {
       if (rows[r].search.result != nullptr) __builtin_prefetch(rows[r].search.result->next[0]);

@@ -197,8 +197,8 @@ TEST(SkipListCoreTest, LowerBoundManyMatchesLowerBound) {
       const Core& list = lists[rng() % lists.size()];
       items.push_back({{&list, static_cast<int>(rng() % 2400) - 1200, nullptr}, q});
     }
-    Core::LowerBoundMany(
-        items.data(), items.size(), [](Item & it) -> auto& { return it.search; });
+    auto search_of = [](Item& it) -> Core::Search& { return it.search; };
+    Core::LowerBoundMany(items.data(), items.size(), search_of);
     for (const Item& it : items) {
       EXPECT_EQ(it.search.result, it.search.list->LowerBound(it.search.key)) << it.tag;
     }
