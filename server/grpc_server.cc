@@ -19,6 +19,9 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   s->objects_ = *std::move(objects);
   s->grpc_objects_ = std::make_unique<GrpcObjectService>(s->objects_.get());
   grpc::ServerBuilder builder;
+  // gRPC sets SO_REUSEPORT by default: a second skimapd on the same port would start and
+  // take half of the connections. Fail to start instead.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddListeningPort(options.address, grpc::InsecureServerCredentials(), &s->port_);
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);

@@ -195,5 +195,17 @@ TEST_F(ServerTest, VoxelPagesCoverTheMapOnceInKeyOrder) {
   EXPECT_EQ(streamed->size(), total);
 }
 
+TEST_F(ServerTest, SecondServerCannotTakeAPortInUse) {
+  // gRPC would share the port (SO_REUSEPORT) and split the clients between two servers.
+  server::GrpcServer::Options options;
+  options.address = absl::StrCat("127.0.0.1:", server_->port());
+  auto second = server::GrpcServer::Start(options);
+  ASSERT_FALSE(second.ok());
+  EXPECT_EQ(second.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(second.status().message(), ::testing::HasSubstr(options.address));
+  // The first server still answers.
+  EXPECT_TRUE(client_->ListMaps(v1::ListMapsRequest()).ok());
+}
+
 }  // namespace
 }  // namespace skimap::testing
