@@ -134,11 +134,12 @@ TEST(SkiMapTest, RandomOperationsMatchReferenceModel) {
         }
       } else if (op == 4) {
         KeyBox box{random_key(), random_key()};
-        Model expected, got;
+        std::vector<std::pair<VoxelKey, float>> expected, got;  // in (x, y, z) order
         for (auto& [k, w] : model) {
-          if (box.Contains(k)) expected[k] = w;
+          if (box.Contains(k)) expected.emplace_back(k, w);
         }
-        map.ForEachInBox(box, [&](const VoxelKey& k, const WeightVoxel& v) { got[k] = v.weight; });
+        map.ForEachInBox(
+            box, [&](const VoxelKey& k, const WeightVoxel& v) { got.emplace_back(k, v.weight); });
         EXPECT_EQ(got, expected);
       } else {
         const Point3 c{coord(rng) * 0.1, coord(rng) * 0.1, coord(rng) * 0.1};
@@ -209,6 +210,41 @@ TEST(SkiMapTest, ThrowingRadiusCallbackReleasesTheLocks) {
   // A writer needs every column lock back (it would block forever otherwise).
   for (int x = -20; x <= 20; ++x) map.DeintegrateKey({x, 0, 0}, WeightVoxel{1});
   EXPECT_TRUE(map.empty());
+}
+
+TEST(SkiMapTest, RadiusSearchOverManyColumnGroupsMatchesBruteForce) {
+  // 160 x columns: one radius search spans several groups of columns, with tall and short
+  // z lists (walls and floor) and empty columns between.
+  SkiMap<WeightVoxel> map({.resolution = 0.05});
+  std::map<VoxelKey, float> model;
+  std::mt19937 rng(11);
+  VoxelBatch<WeightVoxel> batch;
+  for (int i = 0; i < 60000; ++i) {
+    const int x = static_cast<int>(rng() % 160) - 80;
+    if (x % 7 == 0) continue;  // columns left empty
+    const int y = static_cast<int>(rng() % 120) - 60;
+    const int z = (y % 10 == 0) ? static_cast<int>(rng() % 60) : static_cast<int>(rng() % 3);
+    const VoxelKey k{x, y, z};
+    batch.AddKey(k, WeightVoxel{1});
+    model[k] += 1;
+  }
+  batch.Finalize();
+  map.Integrate(batch);
+  for (int q = 0; q < 40; ++q) {
+    const Point3 c{(static_cast<int>(rng() % 200) - 100) * 0.05,
+                   (static_cast<int>(rng() % 160) - 80) * 0.05, (rng() % 40) * 0.05};
+    const double r = 0.1 + (rng() % 300) * 0.01;
+    std::vector<std::pair<VoxelKey, float>> expected, got;
+    for (const auto& [k, w] : model) {
+      const Point3 p = map.grid().Center(k);
+      const double d2 =
+          (p.x - c.x) * (p.x - c.x) + (p.y - c.y) * (p.y - c.y) + (p.z - c.z) * (p.z - c.z);
+      if (d2 <= r * r) expected.emplace_back(k, w);
+    }
+    map.RadiusSearch(
+        c, r, [&](const VoxelKey& k, const WeightVoxel& v) { got.emplace_back(k, v.weight); });
+    EXPECT_EQ(got, expected) << "query " << q << " radius " << r;
+  }
 }
 
 TEST(SkiMapTest, FindReturnsTheFusedValue) {
