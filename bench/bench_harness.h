@@ -151,11 +151,10 @@ void RunBox(benchmark::State& state) {
 template <class S, class Fn>
 void RunWhole(benchmark::State& state, Fn fn) {
   const Built<S>& b = Cached<S>(Workload::kBig, kBigResMm);
-  double result = 0;
-  for (auto _ : state) {
-    result = static_cast<double>(fn(*b.s));
-    benchmark::DoNotOptimize(result);
-  }
+  // A volatile sink, not DoNotOptimize(double&): with GCC its "+m,r" constraint can leave
+  // a stale stack slot in `result` (google/benchmark#903, GCC PR 92597).
+  volatile double result = 0;
+  for (auto _ : state) result = static_cast<double>(fn(*b.s));
   state.counters["result"] = result;
   state.counters["voxels"] = static_cast<double>(b.s->Voxels());
 }
