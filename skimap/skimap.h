@@ -136,7 +136,7 @@ class SkiMap {
   // fn(const VoxelKey&, const V&) for every voxel in (x, y, z) order.
   template <class Fn>
   void ForEach(Fn&& fn) const {
-    ForEachInBox(KeyBox{}, fn);
+    WalkBox(KeyBox{}, fn);
   }
   // fn(const VoxelKey&, const V&) for every voxel with key in `box`, in (x, y, z) order.
   template <class Fn>
@@ -172,6 +172,17 @@ class SkiMap {
   static WriteStats ApplyToColumn(Column& column, int32_t x,
                                   const typename VoxelBatch<V>::Item* begin,
                                   const typename VoxelBatch<V>::Item* end, bool integrate);
+  // The search behind ForEachInBox and RadiusSearch. For each column x in [x0, x1] with
+  // col_range(x, ColState*, int32_t* y0, int32_t* y1) true, each y entry in [y0, y1] with
+  // row_range(const ColState&, y, RowState*, int32_t* z0, int32_t* z1) true, and each voxel
+  // with z in [z0, z1] and keep(const RowState&, z) true: fn(key, value), in (x, y, z) order.
+  // Searches many columns and rows at once so that their cache misses overlap.
+  template <class ColState, class RowState, class ColFn, class RowFn, class KeepFn, class Fn>
+  void SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&& row_range, KeepFn&& keep,
+                     Fn&& fn) const;
+  // fn(key, value) for every voxel in `box` (not empty), column by column, node by node.
+  template <class Fn>
+  void WalkBox(const KeyBox& box, Fn&& fn) const;
   SkipListOptions ColumnOptions(int32_t x) const;
   static std::unique_ptr<Column> CopyColumn(const Column& old, const SkipListOptions& options);
 

@@ -3,6 +3,7 @@
 #define SKIMAP_SKIMAP_IMPL_H_
 
 #include <algorithm>
+#include <utility>
 
 namespace skimap {
 
@@ -341,6 +342,30 @@ template <Voxel V>
 template <class Fn>
 void SkiMap<V>::ForEachInBox(const KeyBox& box, Fn&& fn) const {
   if (box.empty()) return;
+  // Boxes a few hundred voxels wide: many short searches, best interleaved. Wider ones are
+  // long sequential walks, where buffering a group's rows would only cost cache.
+  constexpr int64_t kMaxInterleavedSpan = 1024;
+  if (int64_t{box.max.y} - box.min.y >= kMaxInterleavedSpan) {
+    WalkBox(box, fn);
+    return;
+  }
+  struct None {};
+  SearchColumns<None, None>(
+      box.min.x, box.max.x,
+      [&](int32_t, None*, int32_t* y0, int32_t* y1) {
+        *y0 = box.min.y, *y1 = box.max.y;
+        return true;
+      },
+      [&](const None&, int32_t, None*, int32_t* z0, int32_t* z1) {
+        *z0 = box.min.z, *z1 = box.max.z;
+        return true;
+      },
+      [](const None&, int32_t) { return true; }, fn);
+}
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::WalkBox(const KeyBox& box, Fn&& fn) const {
   ReaderLock x_lock(&x_mu_);
   for (auto* xn = xs_.LowerBound(box.min.x); xn != nullptr && xn->key <= box.max.x;
        xn = xn->next[0]) {
@@ -365,24 +390,54 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
   int32_t x0, x1;
   grid_.CenterRange(c.x - radius, c.x + radius, o.x, &x0, &x1);
   if (x0 > x1) return;
-  // The sphere's columns are searched kGroup at a time, in three interleaved passes whose
-  // cache misses overlap (a map's columns are far apart in memory): the y-list descents of
-  // the group (LowerBoundMany); the walks over each column's y range, a node of each column
-  // in turn; the z-list descents of every (x, y) row the sphere cuts. The rows are then
-  // scanned in (x, y, z) order.
+  // Column state: r² - dx²; row state: r² - dx² - dy².
+  SearchColumns<double, double>(
+      x0, x1,
+      [&](int32_t x, double* rem_x, int32_t* y0, int32_t* y1) {
+        const double dx = grid_.AxisCenter(x, o.x) - c.x;
+        *rem_x = r2 - dx * dx;
+        if (*rem_x < 0) return false;
+        const double sy = std::sqrt(*rem_x);
+        grid_.CenterRange(c.y - sy, c.y + sy, o.y, y0, y1);
+        return *y0 <= *y1;
+      },
+      [&](double rem_x, int32_t y, double* rem_xy, int32_t* z0, int32_t* z1) {
+        const double dy = grid_.AxisCenter(y, o.y) - c.y;
+        *rem_xy = rem_x - dy * dy;
+        if (*rem_xy < 0) return false;
+        const double sz = std::sqrt(*rem_xy);
+        grid_.CenterRange(c.z - sz, c.z + sz, o.z, z0, z1);
+        return *z0 <= *z1;
+      },
+      [&](double rem_xy, int32_t z) {
+        const double dz = grid_.AxisCenter(z, o.z) - c.z;
+        return dz * dz <= rem_xy;
+      },
+      fn);
+}
+
+template <Voxel V>
+template <class ColState, class RowState, class ColFn, class RowFn, class KeepFn, class Fn>
+void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&& row_range,
+                              KeepFn&& keep, Fn&& fn) const {
+  // Columns are searched kGroup at a time, in three interleaved passes whose cache misses
+  // overlap (a map's columns are far apart in memory): the y-list descents of the group
+  // (LowerBoundMany); the walks over each column's y range, a node of each column in turn;
+  // the z-list descents of every (x, y) row the group keeps. The rows are then scanned in
+  // (x, y, z) order.
   constexpr size_t kGroup = 32;
   using YList = typename Column::YList;
   using YNode = typename YList::Node;
   struct Col {
     typename YList::Search search;  // first y >= y0
     int32_t x, y1;
-    double rem_x;  // r² - dx²
+    ColState state;
     size_t rows_begin, rows_end;
   };
   struct Row {
     typename ZList::Search search;  // first z >= z0
     int32_t y, z1;
-    double rem_xy;  // r² - dx² - dy²
+    RowState state;
   };
   Col cols[kGroup];
   std::vector<Row> rows;
@@ -397,8 +452,8 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
     for (size_t i = 0; i < n; ++i) {
       Col& col = cols[i];
       col.rows_begin = col.rows_end = capacity;
-      capacity += std::min<size_t>(static_cast<size_t>(col.y1 - col.search.key) + 1,
-                                   col.search.list->size());
+      const int64_t span = int64_t{col.y1} - col.search.key + 1;
+      capacity += std::min<size_t>(static_cast<size_t>(span), col.search.list->size());
       at[i] = col.search.result;
       walking[width++] = i;
     }
@@ -414,22 +469,22 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
         at[walking[j]] = yn->next[0];
         __builtin_prefetch(yn->next[0]);
         ++j;
-        const double dy = grid_.AxisCenter(yn->key, o.y) - c.y;
-        const double rem_xy = col.rem_x - dy * dy;
-        if (rem_xy < 0) continue;
-        const double sz = std::sqrt(rem_xy);
-        int32_t z0, z1;
-        grid_.CenterRange(c.z - sz, c.z + sz, o.z, &z0, &z1);
-        if (z0 > z1) continue;
+        Row row;
+        int32_t z0;
+        if (!row_range(std::as_const(col.state), yn->key, &row.state, &z0, &row.z1)) continue;
         yn->value.PrefetchHead();
-        rows[col.rows_end++] = {{&yn->value, z0, nullptr}, yn->key, z1, rem_xy};
+        row.search = {&yn->value, z0, nullptr};
+        row.y = yn->key;
+        rows[col.rows_end++] = row;
       }
     }
     // Close the gaps between the slices, then scan every row of the group.
     size_t nrows = 0;
     for (size_t i = 0; i < n; ++i) {
       Col& col = cols[i];
-      std::copy(rows.begin() + col.rows_begin, rows.begin() + col.rows_end, rows.begin() + nrows);
+      if (col.rows_begin != nrows) {
+        std::copy(rows.begin() + col.rows_begin, rows.begin() + col.rows_end, rows.begin() + nrows);
+      }
       col.rows_end = nrows + (col.rows_end - col.rows_begin);
       col.rows_begin = nrows;
       nrows = col.rows_end;
@@ -448,8 +503,7 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
         const Row& row = rows[r];
         for (const ZNode* zn = row.search.result; zn != nullptr && zn->key <= row.z1;
              zn = zn->next[0]) {
-          const double dz = grid_.AxisCenter(zn->key, o.z) - c.z;
-          if (dz * dz <= row.rem_xy) fn(VoxelKey{cols[i].x, row.y, zn->key}, zn->value);
+          if (keep(row.state, zn->key)) fn(VoxelKey{cols[i].x, row.y, zn->key}, zn->value);
         }
       }
     }
@@ -471,20 +525,17 @@ void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
     n = 0;
   };
   for (auto* xn = xs_.LowerBound(x0); xn != nullptr && xn->key <= x1; xn = xn->next[0]) {
-    const double dx = grid_.AxisCenter(xn->key, o.x) - c.x;
-    const double rem_x = r2 - dx * dx;
-    if (rem_x < 0) continue;
-    const double sy = std::sqrt(rem_x);
-    int32_t y0, y1;
-    grid_.CenterRange(c.y - sy, c.y + sy, o.y, &y0, &y1);
-    if (y0 > y1) continue;
+    Col& col = cols[n];
+    int32_t y0;
+    if (!col_range(xn->key, &col.state, &y0, &col.y1)) continue;
     const Column& column = *xn->value;
     // Shared locks of a group are taken in ascending x; writers never hold a column lock
     // while waiting for another, so holding several cannot deadlock.
     column.mu.ReaderLock();
     locks.columns[locks.n++] = &column;
-    cols[n++] = {{&column.ys, y0, nullptr}, xn->key, y1, rem_x, 0, 0};
-    if (n == kGroup) flush();
+    col.search = {&column.ys, y0, nullptr};
+    col.x = xn->key;
+    if (++n == kGroup) flush();
   }
   if (n > 0) flush();
 }

@@ -212,7 +212,7 @@ TEST(SkiMapTest, ThrowingRadiusCallbackReleasesTheLocks) {
   EXPECT_TRUE(map.empty());
 }
 
-TEST(SkiMapTest, RadiusSearchOverManyColumnGroupsMatchesBruteForce) {
+TEST(SkiMapTest, SearchesOverManyColumnGroupsMatchBruteForce) {
   // 160 x columns: one radius search spans several groups of columns, with tall and short
   // z lists (walls and floor) and empty columns between.
   SkiMap<WeightVoxel> map({.resolution = 0.05});
@@ -244,6 +244,18 @@ TEST(SkiMapTest, RadiusSearchOverManyColumnGroupsMatchesBruteForce) {
     map.RadiusSearch(
         c, r, [&](const VoxelKey& k, const WeightVoxel& v) { got.emplace_back(k, v.weight); });
     EXPECT_EQ(got, expected) << "query " << q << " radius " << r;
+  }
+  // Boxes narrower and wider than the interleaved search's limit (1 024 keys in y).
+  for (const KeyBox& box :
+       {KeyBox{{-70, -20, 1}, {75, 31, 40}}, KeyBox{{-30, -2000, 0}, {60, 2000, 2}}}) {
+    std::vector<std::pair<VoxelKey, float>> expected, got;
+    for (const auto& [k, w] : model) {
+      if (box.Contains(k)) expected.emplace_back(k, w);
+    }
+    map.ForEachInBox(
+        box, [&](const VoxelKey& k, const WeightVoxel& v) { got.emplace_back(k, v.weight); });
+    EXPECT_EQ(got, expected);
+    EXPECT_FALSE(got.empty());
   }
 }
 
