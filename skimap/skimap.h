@@ -20,10 +20,10 @@
 //  - Readers (every const method) may run concurrently with each other and with the
 //    writer. A reader holds the x-level lock in shared mode for the whole call and each
 //    column's lock in shared mode while it visits the column, so it sees every column in a
-//    consistent state, though not all columns at the same instant. RadiusSearch holds the
-//    shared locks of up to 32 columns at once, taken in ascending x; writers never hold a
-//    column lock while waiting for another, so this cannot deadlock. The writer takes the
-//    x-level lock exclusively only to add or remove columns.
+//    consistent state, though not all columns at the same instant. RadiusSearch and
+//    ForEachInBox hold the shared locks of up to 32 columns at once, taken in ascending x;
+//    writers never hold a column lock while waiting for another, so this cannot deadlock.
+//    The writer takes the x-level lock exclusively only to add or remove columns.
 //  - Callbacks run under those shared locks: they must not call writers of the same map.
 #ifndef SKIMAP_SKIMAP_H_
 #define SKIMAP_SKIMAP_H_
