@@ -1,0 +1,233 @@
+// Template definitions of SkiMap's searches (ForEachInBox, RadiusSearch, ForEachColumn and
+// the interleaved SearchColumns behind the first two). Include skimap.h, not this file.
+#ifndef SKIMAP_SKIMAP_SEARCH_IMPL_H_
+#define SKIMAP_SKIMAP_SEARCH_IMPL_H_
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace skimap {
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::ForEachInBox(const KeyBox& box, Fn&& fn) const {
+  if (box.empty()) return;
+  // Boxes a few hundred voxels wide: many short searches, best interleaved. Wider ones are
+  // long sequential walks, where buffering a group's rows would only cost cache.
+  constexpr int64_t kMaxInterleavedSpan = 1024;
+  if (int64_t{box.max.y} - box.min.y >= kMaxInterleavedSpan) {
+    WalkBox(box, fn);
+    return;
+  }
+  struct None {};
+  SearchColumns<None, None>(
+      box.min.x, box.max.x,
+      [&](int32_t, None*, int32_t* y0, int32_t* y1) {
+        *y0 = box.min.y, *y1 = box.max.y;
+        return true;
+      },
+      [&](const None&, int32_t, None*, int32_t* z0, int32_t* z1) {
+        *z0 = box.min.z, *z1 = box.max.z;
+        return true;
+      },
+      [](const None&, int32_t) { return true; }, fn);
+}
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::WalkBox(const KeyBox& box, Fn&& fn) const {
+  ReaderLock x_lock(&x_mu_);
+  for (auto* xn = xs_.LowerBound(box.min.x); xn != nullptr && xn->key <= box.max.x;
+       xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    ReaderLock lock(&column.mu);
+    for (auto* yn = column.ys.LowerBound(box.min.y); yn != nullptr && yn->key <= box.max.y;
+         yn = yn->next[0]) {
+      for (const ZNode* zn = yn->value.LowerBound(box.min.z); zn != nullptr && zn->key <= box.max.z;
+           zn = zn->next[0]) {
+        fn(VoxelKey{xn->key, yn->key, zn->key}, zn->value);
+      }
+    }
+  }
+}
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::RadiusSearch(const Point3& c, double radius, Fn&& fn) const {
+  if (!(radius >= 0) || !std::isfinite(radius)) return;
+  const double r2 = radius * radius;
+  const Point3& o = grid_.origin();
+  int32_t x0, x1;
+  grid_.CenterRange(c.x - radius, c.x + radius, o.x, &x0, &x1);
+  if (x0 > x1) return;
+  // Column state: r² - dx²; row state: r² - dx² - dy².
+  SearchColumns<double, double>(
+      x0, x1,
+      [&](int32_t x, double* rem_x, int32_t* y0, int32_t* y1) {
+        const double dx = grid_.AxisCenter(x, o.x) - c.x;
+        *rem_x = r2 - dx * dx;
+        if (*rem_x < 0) return false;
+        const double sy = std::sqrt(*rem_x);
+        grid_.CenterRange(c.y - sy, c.y + sy, o.y, y0, y1);
+        return *y0 <= *y1;
+      },
+      [&](double rem_x, int32_t y, double* rem_xy, int32_t* z0, int32_t* z1) {
+        const double dy = grid_.AxisCenter(y, o.y) - c.y;
+        *rem_xy = rem_x - dy * dy;
+        if (*rem_xy < 0) return false;
+        const double sz = std::sqrt(*rem_xy);
+        grid_.CenterRange(c.z - sz, c.z + sz, o.z, z0, z1);
+        return *z0 <= *z1;
+      },
+      [&](double rem_xy, int32_t z) {
+        const double dz = grid_.AxisCenter(z, o.z) - c.z;
+        return dz * dz <= rem_xy;
+      },
+      fn);
+}
+
+template <Voxel V>
+template <class ColState, class RowState, class ColFn, class RowFn, class KeepFn, class Fn>
+void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&& row_range,
+                              KeepFn&& keep, Fn&& fn) const {
+  // Columns are searched kGroup at a time, in three interleaved passes whose cache misses
+  // overlap (a map's columns are far apart in memory): the y-list descents of the group
+  // (LowerBoundMany); the walks over each column's y range, a node of each column in turn;
+  // the z-list descents of every (x, y) row the group keeps. The rows are then scanned in
+  // (x, y, z) order.
+  constexpr size_t kGroup = 32;
+  using YList = typename Column::YList;
+  using YNode = typename YList::Node;
+  struct Col {
+    typename YList::Search search;  // first y >= y0
+    int32_t x, y1;
+    ColState state;
+    size_t rows_begin, rows_end;
+  };
+  struct Row {
+    typename ZList::Search search;  // first z >= z0
+    int32_t y, z1;
+    RowState state;
+  };
+  Col cols[kGroup];
+  std::vector<Row> rows;
+  auto run_group = [&](size_t n) {
+    auto col_search = [](Col& col) -> typename YList::Search& { return col.search; };
+    YList::LowerBoundMany(cols, n, col_search);
+    // Each column's rows land in its own slice of `rows`, in y order.
+    size_t capacity = 0;
+    const YNode* at[kGroup];
+    size_t walking[kGroup];
+    size_t width = 0;
+    for (size_t i = 0; i < n; ++i) {
+      Col& col = cols[i];
+      col.rows_begin = col.rows_end = capacity;
+      const int64_t span = int64_t{col.y1} - col.search.key + 1;
+      capacity += std::min<size_t>(static_cast<size_t>(span), col.search.list->size());
+      at[i] = col.search.result;
+      walking[width++] = i;
+    }
+    if (rows.size() < capacity) rows.resize(capacity);
+    while (width > 0) {
+      for (size_t j = 0; j < width;) {
+        Col& col = cols[walking[j]];
+        const YNode* yn = at[walking[j]];
+        if (yn == nullptr || yn->key > col.y1) {
+          walking[j] = walking[--width];
+          continue;
+        }
+        at[walking[j]] = yn->next[0];
+        __builtin_prefetch(yn->next[0]);
+        ++j;
+        Row row;
+        int32_t z0;
+        if (!row_range(std::as_const(col.state), yn->key, &row.state, &z0, &row.z1)) continue;
+        yn->value.PrefetchHead();
+        row.search = {&yn->value, z0, nullptr};
+        row.y = yn->key;
+        rows[col.rows_end++] = row;
+      }
+    }
+    // Close the gaps between the slices, then scan every row of the group.
+    size_t nrows = 0;
+    for (size_t i = 0; i < n; ++i) {
+      Col& col = cols[i];
+      if (col.rows_begin != nrows) {
+        std::copy(rows.begin() + col.rows_begin, rows.begin() + col.rows_end, rows.begin() + nrows);
+      }
+      col.rows_end = nrows + (col.rows_end - col.rows_begin);
+      col.rows_begin = nrows;
+      nrows = col.rows_end;
+    }
+    auto row_search = [](Row& row) -> typename ZList::Search& { return row.search; };
+    ZList::LowerBoundMany(rows.data(), nrows, row_search);
+    constexpr size_t kAhead = 4;  // rows whose second node is prefetched ahead of the scan
+    for (size_t r = 0; r < std::min(kAhead, nrows); ++r) {
+      if (rows[r].search.result != nullptr) __builtin_prefetch(rows[r].search.result->next[0]);
+    }
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t r = cols[i].rows_begin; r < cols[i].rows_end; ++r) {
+        if (r + kAhead < nrows && rows[r + kAhead].search.result != nullptr) {
+          __builtin_prefetch(rows[r + kAhead].search.result->next[0]);
+        }
+        const Row& row = rows[r];
+        for (const ZNode* zn = row.search.result; zn != nullptr && zn->key <= row.z1;
+             zn = zn->next[0]) {
+          if (keep(row.state, zn->key)) fn(VoxelKey{cols[i].x, row.y, zn->key}, zn->value);
+        }
+      }
+    }
+  };
+  ReaderLock x_lock(&x_mu_);
+  // The group's shared column locks; released by flush() or, should `fn` throw, here.
+  struct GroupLocks {
+    const Column* columns[kGroup];
+    size_t n = 0;
+    void Release() ABSL_NO_THREAD_SAFETY_ANALYSIS {
+      for (; n > 0; --n) columns[n - 1]->mu.ReaderUnlock();
+    }
+    ~GroupLocks() { Release(); }
+  } locks;
+  size_t n = 0;
+  auto flush = [&] {
+    run_group(n);
+    locks.Release();
+    n = 0;
+  };
+  for (auto* xn = xs_.LowerBound(x0); xn != nullptr && xn->key <= x1; xn = xn->next[0]) {
+    Col& col = cols[n];
+    int32_t y0;
+    if (!col_range(xn->key, &col.state, &y0, &col.y1)) continue;
+    const Column& column = *xn->value;
+    // Shared locks of a group are taken in ascending x; writers never hold a column lock
+    // while waiting for another, so holding several cannot deadlock.
+    column.mu.ReaderLock();
+    locks.columns[locks.n++] = &column;
+    col.search = {&column.ys, y0, nullptr};
+    col.x = xn->key;
+    if (++n == kGroup) flush();
+  }
+  if (n > 0) flush();
+}
+
+template <Voxel V>
+template <class Fn>
+void SkiMap<V>::ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32_t max_y,
+                              Fn&& fn) const {
+  ReaderLock x_lock(&x_mu_);
+  for (auto* xn = xs_.LowerBound(min_x); xn != nullptr && xn->key <= max_x; xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    ReaderLock lock(&column.mu);
+    for (auto* yn = column.ys.LowerBound(min_y); yn != nullptr && yn->key <= max_y;
+         yn = yn->next[0]) {
+      fn(xn->key, yn->key, ZColumn(yn->value));
+    }
+  }
+}
+
+}  // namespace skimap
+
+#endif  // SKIMAP_SKIMAP_SEARCH_IMPL_H_
