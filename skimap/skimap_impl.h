@@ -250,46 +250,41 @@ WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBa
     c.arena.pool().Reserve(static_cast<size_t>(end - begin) * (ZList::NodeBytes(1) + per_node) +
                            ys * (YList::NodeBytes(1) + per_node));
   }
-  // Appends the run [it, run_end) to the empty z list of y node `yn` (made on first need
-  // by make_yn when null); items with empty data are skipped, as V() += empty stays empty.
-  auto append_run = [&](const typename VoxelBatch<V>::Item*& it,
-                        const typename VoxelBatch<V>::Item* run_end, typename YList::Node* yn,
-                        auto make_yn) {
-    typename ZList::Finger zf;
-    for (; it != run_end; ++it) {
-      ++s.voxels_touched;
-      if (it->data.IsEmpty()) continue;
-      if (yn == nullptr) yn = make_yn();
-      ZNode* zn = yn->value.Append(c.arena, zf, it->key.z);
-      zn->value += it->data;
-      c.heap_bytes += zn->value.HeapBytes();
-      ++s.voxels_created;
-    }
-    return yn;
-  };
   for (auto* it = begin; it != end;) {
     const int32_t y = it->key.y;
     auto* run_end = it;
     while (run_end != end && run_end->key.y == y) ++run_end;
-    if (new_column) {
-      append_run(it, run_end, nullptr, [&] { return c.ys.Append(c.arena, yf, y); });
-      continue;
-    }
     typename YList::Node* yn;
-    if (integrate) {
-      bool inserted = false;  // a new y entry starts with an empty z list
-      yn = c.ys.FindOrInsert(c.arena, yf, y, &inserted);
-      if (inserted) {
-        append_run(it, run_end, yn, [] { return nullptr; });
-        if (yn->value.empty()) c.ys.Erase(c.arena, yf, y);
-        continue;
-      }
+    bool fresh = false;  // yn is a new entry: its voxels are appended without search
+    if (new_column) {
+      // Empty data makes no voxel (V() += empty stays empty), so no entry for a run of it.
+      for (; it != run_end && it->data.IsEmpty(); ++it) ++s.voxels_touched;
+      if (it == run_end) continue;
+      yn = c.ys.Append(c.arena, yf, y);
+      fresh = true;
+    } else if (integrate) {
+      yn = c.ys.FindOrInsert(c.arena, yf, y, &fresh);
     } else {
       yn = c.ys.Seek(yf, y);
       if (yn == nullptr || yn->key != y) {
         it = run_end;
         continue;
       }
+    }
+    if (fresh) {
+      typename ZList::Finger append;
+      for (; it != run_end; ++it) {
+        ++s.voxels_touched;
+        if (it->data.IsEmpty()) continue;
+        ZNode* zn = yn->value.Append(c.arena, append, it->key.z);
+        zn->value += it->data;
+        c.heap_bytes += zn->value.HeapBytes();
+        ++s.voxels_created;
+      }
+      // Only FindOrInsert's entries can end empty (a new column's start with real data),
+      // and yf is then a Seek finger, as Erase needs.
+      if (yn->value.empty()) c.ys.Erase(c.arena, yf, y);
+      continue;
     }
     ZList& zl = yn->value;
     typename ZList::Finger zf;
