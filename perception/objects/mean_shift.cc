@@ -28,25 +28,35 @@ double KernelWeight(const MeanShiftOptions& o, double d) {
   return std::exp(-0.5 * (d * d) / (o.bandwidth * o.bandwidth));
 }
 
+// Weighs every point by the kernel around mode m: add(point, weight) for each point of
+// non-zero weight; sets m->support (points within the bandwidth). Returns the total weight.
+template <class Add>
+double WeighPoints(const DescriptorMatrix& pts, const MeanShiftOptions& o, Mode* m, Add add) {
+  double total = 0;
+  size_t support = 0;
+  for (size_t i = 0; i < pts.rows(); ++i) {
+    const DescriptorRef p = pts.Row(i);
+    const double d = DescriptorDistance(pts.layout(), m->ref(), p);
+    const double w = KernelWeight(o, d);
+    if (d <= o.bandwidth) ++support;
+    if (w == 0) continue;
+    total += w;
+    add(p, w);
+  }
+  m->support = support;
+  return total;
+}
+
 // One shift of a binary mode: weighted per-bit majority. Returns true if it moved.
 bool ShiftBinary(const DescriptorMatrix& pts, const MeanShiftOptions& o, Mode* m,
                  std::vector<double>* votes) {
   const DescriptorLayout& l = pts.layout();
   std::fill(votes->begin(), votes->end(), 0.0);
-  double total = 0;
-  size_t support = 0;
-  for (size_t i = 0; i < pts.rows(); ++i) {
-    const DescriptorRef p = pts.Row(i);
-    const double d = DescriptorDistance(l, m->ref(), p);
-    const double w = KernelWeight(o, d);
-    if (d <= o.bandwidth) ++support;
-    if (w == 0) continue;
-    total += w;
+  const double total = WeighPoints(pts, o, m, [&](const DescriptorRef& p, double w) {
     for (int b = 0; b < l.dims; ++b) {
       if ((p.bits[b >> 3] >> (b & 7)) & 1) (*votes)[b] += w;
     }
-  }
-  m->support = support;
+  });
   if (total == 0) return false;
   bool moved = false;
   for (int b = 0; b < l.dims; ++b) {
@@ -68,18 +78,9 @@ bool ShiftFloat(const DescriptorMatrix& pts, const MeanShiftOptions& o, Mode* m,
                 std::vector<double>* sum) {
   const DescriptorLayout& l = pts.layout();
   std::fill(sum->begin(), sum->end(), 0.0);
-  double total = 0;
-  size_t support = 0;
-  for (size_t i = 0; i < pts.rows(); ++i) {
-    const DescriptorRef p = pts.Row(i);
-    const double d = DescriptorDistance(l, m->ref(), p);
-    const double w = KernelWeight(o, d);
-    if (d <= o.bandwidth) ++support;
-    if (w == 0) continue;
-    total += w;
+  const double total = WeighPoints(pts, o, m, [&](const DescriptorRef& p, double w) {
     for (int k = 0; k < l.dims; ++k) (*sum)[k] += w * p.values[k];
-  }
-  m->support = support;
+  });
   if (total == 0) return false;
   double moved2 = 0;
   for (int k = 0; k < l.dims; ++k) {
