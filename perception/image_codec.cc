@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "perception/image_header.h"
 
 namespace skimap::perception {
 namespace {
@@ -27,9 +28,31 @@ absl::Status SizeMismatch(const char* what, int got_w, int got_h, int width, int
                                                  ", expected ", width, "x", height));
 }
 
-// imdecode wants a Mat; this one aliases the bytes without copying.
-cv::Mat Wrap(std::string_view bytes) {
-  return cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
+// Reads the header of a PNG / JPEG and checks that it claims width x height pixels before
+// any decoder sizes a buffer from it.
+absl::StatusOr<ImageHeader> CheckHeader(const char* what, ImageFormat format,
+                                        std::string_view bytes, int width, int height) {
+  absl::StatusOr<ImageHeader> h =
+      ReadImageHeader(format, absl::string_view(bytes.data(), bytes.size()), what);
+  if (!h.ok()) return h.status();
+  if (h->width != width || h->height != height) {
+    return absl::InvalidArgumentError(absl::StrCat(what, ": image header claims ", h->width, "x",
+                                                   h->height, ", expected ", width, "x", height));
+  }
+  return h;
+}
+
+// cv::imdecode of bytes whose header was checked; an empty Mat when they do not decode.
+// OpenCV reports some failures by throwing: no exception leaves this module.
+cv::Mat Decode(std::string_view bytes, int flags) {
+  try {
+    // This Mat aliases the bytes without copying.
+    const cv::Mat wrapped(1, static_cast<int>(bytes.size()), CV_8UC1,
+                          const_cast<char*>(bytes.data()));
+    return cv::imdecode(wrapped, flags);
+  } catch (const cv::Exception&) {
+    return cv::Mat();
+  }
 }
 
 void LoadLittleEndian(std::string_view bytes, std::vector<uint16_t>* out) {
@@ -82,7 +105,14 @@ absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes,
     }
     case DepthCodec::kPng16: {
       if (bytes.empty()) return absl::InvalidArgumentError("depth: empty PNG");
-      cv::Mat m = cv::imdecode(Wrap(bytes), cv::IMREAD_ANYDEPTH);
+      absl::StatusOr<ImageHeader> h = CheckHeader("depth", ImageFormat::kPng, bytes, width, height);
+      if (!h.ok()) return h.status();
+      if (h->bit_depth != 16 || h->channels != 1) {
+        return absl::InvalidArgumentError(absl::StrCat("depth: PNG must be 16-bit greyscale, got ",
+                                                       h->bit_depth, "-bit with ", h->channels,
+                                                       " channel(s)"));
+      }
+      cv::Mat m = Decode(bytes, cv::IMREAD_ANYDEPTH);
       if (m.empty()) return absl::InvalidArgumentError("depth: PNG does not decode");
       if (m.type() != CV_16UC1) {
         return absl::InvalidArgumentError("depth: PNG must be 16-bit greyscale");
@@ -114,7 +144,20 @@ absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes,
     return image;
   }
   if (bytes.empty()) return absl::InvalidArgumentError("color: empty image");
-  cv::Mat m = cv::imdecode(Wrap(bytes), cv::IMREAD_COLOR);  // always 8-bit BGR
+  const bool png = codec == ColorCodec::kPng;
+  absl::StatusOr<ImageHeader> h =
+      CheckHeader("color", png ? ImageFormat::kPng : ImageFormat::kJpeg, bytes, width, height);
+  if (!h.ok()) return h.status();
+  // IMREAD_COLOR would quietly scale 16-bit samples down; colour is 8-bit on the wire.
+  if (h->bit_depth > 8) {
+    return absl::InvalidArgumentError(absl::StrCat("color: ", png ? "PNG" : "JPEG", " has ",
+                                                   h->bit_depth, "-bit samples, expected 8-bit"));
+  }
+  if (!png && h->channels != 1 && h->channels != 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("color: JPEG has ", h->channels, " components, expected 1 or 3"));
+  }
+  cv::Mat m = Decode(bytes, cv::IMREAD_COLOR);  // always 8-bit BGR
   if (m.empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat("color: ", codec == ColorCodec::kPng ? "PNG" : "JPEG", " does not decode"));

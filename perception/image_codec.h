@@ -4,9 +4,12 @@
 //   absl::StatusOr<DepthImage> depth = DecodeDepth(DepthCodec::kPng16, bytes, 640, 480);
 //   absl::StatusOr<std::string> packed = EncodeDepth(DepthCodec::kZstd, *depth);
 //
-// Every decoder checks the decoded size against the expected width x height before it
-// trusts the data and returns InvalidArgument ("depth: ...", "color: ...") otherwise;
-// a zstd frame that claims more than width*height*2 bytes is rejected before allocation.
+// Every decoder checks the size an image claims against the expected width x height before
+// it allocates or decodes anything (PNG / JPEG headers: image_header.h; a zstd frame's
+// content size), checks the decoded result again, and returns InvalidArgument
+// ("depth: ...", "color: ...") otherwise. Depth PNGs must be 16-bit greyscale; colour
+// PNG / JPEG must have 8-bit samples; a JPEG without its EOI marker (truncated) is refused.
+// No exception from OpenCV leaves these functions.
 //
 // Thread safety: free functions on values; safe from any thread.
 #ifndef PERCEPTION_IMAGE_CODEC_H_

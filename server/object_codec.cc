@@ -8,6 +8,8 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
+#include "perception/echo.h"
+#include "perception/image_header.h"
 #include "server/frame_decode.h"
 #include "skimap/encoding.h"
 #include "skimap/serialization.h"
@@ -29,7 +31,7 @@ absl::StatusOr<int> ParseObjectName(absl::string_view name, absl::string_view fi
   if (!absl::ConsumePrefix(&rest, "objects/") || !absl::SimpleAtoi(rest, &id) || id < 1 ||
       id > kMaxObjId) {
     return absl::InvalidArgumentError(
-        absl::StrCat(field, ": \"", name, "\" is not an object name objects/{1..999999}"));
+        absl::StrCat(field, ": ", Echo(name), " is not an object name objects/{1..999999}"));
   }
   return id;
 }
@@ -126,6 +128,15 @@ absl::StatusOr<cv::Mat> DecodeMask(v1::MaskEncoding encoding, const std::string&
     }
     mask = cv::Mat(height, width, CV_8UC1, const_cast<char*>(bytes.data())).clone();
   } else if (encoding == v1::MASK_ENCODING_PNG) {
+    // The header first: a PNG claiming huge dimensions must not size a buffer.
+    absl::StatusOr<perception::ImageHeader> h =
+        perception::ReadImageHeader(perception::ImageFormat::kPng, bytes, field);
+    if (!h.ok()) return h.status();
+    if (h->width != width || h->height != height || h->bit_depth > 8) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ": PNG header claims ", h->width, "x", h->height, " at ",
+                       h->bit_depth, " bits, expected an 8-bit ", width, "x", height, " mask"));
+    }
     const cv::Mat buf(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
     try {
       mask = cv::imdecode(buf, cv::IMREAD_GRAYSCALE);
