@@ -28,6 +28,29 @@ absl::Status ValidateCamera(const PinholeCamera& c) {
   if (c.height <= 0 || c.height > kMaxSide) {
     return absl::InvalidArgumentError(absl::StrCat("intrinsics.height must be in 1..", kMaxSide));
   }
+  // Plausibility (docs/api.md, "Frame limits"): a field of view a real camera can have and
+  // a principal point near the image; anything else puts the points far from the camera.
+  const auto fov = [](double side, double f) { return 2 * std::atan(side / (2 * f)) * 180 / M_PI; };
+  if (const double a = fov(c.width, c.fx); !(a >= kMinFovDegrees && a <= kMaxFovDegrees)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("intrinsics.fx: horizontal field of view 2*atan(width/(2*fx)) = ", a,
+                     " degrees, outside ", kMinFovDegrees, "..", kMaxFovDegrees));
+  }
+  if (const double a = fov(c.height, c.fy); !(a >= kMinFovDegrees && a <= kMaxFovDegrees)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("intrinsics.fy: vertical field of view 2*atan(height/(2*fy)) = ", a,
+                     " degrees, outside ", kMinFovDegrees, "..", kMaxFovDegrees));
+  }
+  if (!(c.cx >= -0.5 * c.width && c.cx <= 1.5 * c.width)) {
+    return absl::InvalidArgumentError(absl::StrCat("intrinsics.cx: ", c.cx, " is outside ",
+                                                   -0.5 * c.width, "..", 1.5 * c.width,
+                                                   " (the image widened by half its width)"));
+  }
+  if (!(c.cy >= -0.5 * c.height && c.cy <= 1.5 * c.height)) {
+    return absl::InvalidArgumentError(absl::StrCat("intrinsics.cy: ", c.cy, " is outside ",
+                                                   -0.5 * c.height, "..", 1.5 * c.height,
+                                                   " (the image widened by half its height)"));
+  }
   return absl::OkStatus();
 }
 

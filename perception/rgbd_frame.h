@@ -38,9 +38,15 @@ struct RgbdFrame {
 
 // Quaternion norms further than this from 1 are rejected (no silent normalization).
 inline constexpr double kQuaternionNormTolerance = 1e-3;
+// Plausible cameras: each field of view in [1, 170] degrees, the principal point inside the
+// image widened by half its size on every side.
+inline constexpr double kMinFovDegrees = 1;
+inline constexpr double kMaxFovDegrees = 170;
 
 // OK, or InvalidArgument naming the first bad field with the API's field names:
 // "intrinsics.fx must be > 0", "pose.rotation is not a unit quaternion", ...
+// ValidateCamera also refuses implausible cameras (kMinFovDegrees..kMaxFovDegrees, the
+// principal point's range above).
 absl::Status ValidateCamera(const PinholeCamera& camera);
 absl::Status ValidatePose(const CameraPose& pose);
 // Camera, pose, depth_scale and that the images match the camera size.

@@ -1,6 +1,7 @@
 #include "server/live_map.h"
 
 #include <chrono>
+#include <random>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -22,6 +23,7 @@ void SetDuration(Clock::duration d, google::protobuf::Duration* out) {
 
 LiveMap::LiveMap(std::string id, const Options& options)
     : id_(std::move(id)),
+      incarnation_(uint64_t{std::random_device()()} << 32 | std::random_device()()),
       options_(options),
       volume_({.resolution = options.config.resolution, .pool = options.pool}),
       free_({.resolution = options.config.resolution, .pool = options.pool}),
@@ -66,6 +68,9 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   }
   absl::StatusOr<perception::RgbdFrame> decoded = DecodeFrame(*frame);
   if (!decoded.ok()) return decoded.status();
+  if (absl::Status s = ValidatePoseInMap(decoded->pose, options_.config, "pose"); !s.ok()) {
+    return s;
+  }
   perception::IntegrationStats stats;
   BuildBatches(*decoded, &batch_, &free_batch_, &stats);
   WriteStats written;
@@ -81,6 +86,17 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   ack.set_sequence(frame->sequence());
   ack.set_voxels_touched(written.voxels_touched);
   ack.set_points(stats.points);
+  ack.set_points_out_of_range(stats.out_of_range);
+  ack.set_points_outside_map(stats.no_key);
+  if (stats.points == 0 && stats.no_key > 0) {
+    ack.set_message(absl::StrCat("integrated nothing: all ", stats.no_key,
+                                 " points fall outside the map's key range"));
+  } else if (stats.points == 0) {
+    const perception::IntegrationOptions& o = options_.config.integration;
+    ack.set_message(absl::StrCat("integrated nothing: no depth pixel in [", o.min_depth, ", ",
+                                 o.max_depth, "] m (", stats.out_of_range,
+                                 " valid pixels outside it)"));
+  }
   SetDuration(Clock::now() - start, ack.mutable_integration_time());
   return ack;
 }
@@ -134,12 +150,18 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
     if (!pose.ok()) {
       return absl::InvalidArgumentError(absl::StrCat(field, ".", pose.status().message()));
     }
+    if (absl::Status s = ValidatePoseInMap(*pose, options_.config, absl::StrCat(field, ".pose"));
+        !s.ok()) {
+      return s;
+    }
     poses.push_back(*pose);
   }
-  v1::UpdatePosesResponse response;
-  WriteStats total;
+  // Every frame's old and new contributions, merged into four batches outside the lock
+  // (their size is bounded by the distinct voxels involved, not by the frame count) ...
+  VoxelBatch<RGBWeightedVoxel> old_all, new_all;
+  VoxelBatch<WeightVoxel> old_free_all, new_free_all;
   for (int i = 0; i < request.updates_size(); ++i) {
-    KeptFrame& kept = kept_.at(request.updates(i).sequence());
+    const KeptFrame& kept = kept_.at(request.updates(i).sequence());
     absl::StatusOr<perception::RgbdFrame> frame = DecodeFrame(*kept.frame);
     if (!frame.ok()) return frame.status();  // decoded fine before: cannot happen
     perception::IntegrationStats ignored;
@@ -147,14 +169,28 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
     BuildBatches(*frame, &old_batch_, &old_free_batch_, &ignored);
     frame->pose = poses[i];
     BuildBatches(*frame, &batch_, &free_batch_, &ignored);
-    {
-      WriterLock lock(&snapshot_mu_);
-      total += volume_.Deintegrate(old_batch_);
-      total += volume_.Integrate(batch_);
-      if (!old_free_batch_.empty()) free_.Deintegrate(old_free_batch_);
-      if (!free_batch_.empty()) free_.Integrate(free_batch_);
-    }
-    kept.pose = poses[i];
+    old_all.AddItems(old_batch_.items());
+    new_all.AddItems(batch_.items());
+    old_free_all.AddItems(old_free_batch_.items());
+    new_free_all.AddItems(free_batch_.items());
+  }
+  old_all.Finalize(options_.pool);
+  new_all.Finalize(options_.pool);
+  old_free_all.Finalize(options_.pool);
+  new_free_all.Finalize(options_.pool);
+  // ... applied under one exclusive lock: a reader sees every correction or none. The
+  // weights are integer counts, so merged de-integration is exact.
+  v1::UpdatePosesResponse response;
+  WriteStats total;
+  {
+    WriterLock lock(&snapshot_mu_);
+    total += volume_.Deintegrate(old_all);
+    total += volume_.Integrate(new_all);
+    if (!old_free_all.empty()) free_.Deintegrate(old_free_all);
+    if (!new_free_all.empty()) free_.Integrate(new_free_all);
+  }
+  for (int i = 0; i < request.updates_size(); ++i) {
+    kept_.at(request.updates(i).sequence()).pose = poses[i];
   }
   response.set_frames_updated(request.updates_size());
   response.set_voxels_touched(total.voxels_touched);

@@ -60,6 +60,8 @@ class LiveMap {
   LiveMap& operator=(const LiveMap&) = delete;
 
   const std::string& id() const { return id_; }
+  // Random at creation: tells this map from an earlier one with the same id (page tokens).
+  uint64_t incarnation() const { return incarnation_; }
   const MapConfig& config() const { return options_.config; }
 
   // Queues `frame` (REQUIRES: frame.map() names this map). `done` runs exactly once with
@@ -109,6 +111,7 @@ class LiveMap {
   absl::Status MapGone() const;
 
   const std::string id_;
+  const uint64_t incarnation_;
   const Options options_;
   std::atomic<bool> deleted_{false};
 

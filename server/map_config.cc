@@ -4,6 +4,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "perception/echo.h"
 
 namespace skimap::server {
 namespace {
@@ -77,17 +78,31 @@ absl::Status ValidateMapId(absl::string_view id, absl::string_view field) {
   }
   if (ok) return absl::OkStatus();
   return absl::InvalidArgumentError(absl::StrCat(
-      field, " must be 1-63 characters of [a-z0-9_-] starting with a letter, got \"", id, "\""));
+      field, " must be 1-63 characters of [a-z0-9_-] starting with a letter, got ", Echo(id)));
 }
 
 absl::StatusOr<std::string> ParseMapName(absl::string_view name, absl::string_view field) {
   if (!absl::StartsWith(name, "maps/")) {
     return absl::InvalidArgumentError(
-        absl::StrCat(field, " must be \"maps/{map_id}\", got \"", name, "\""));
+        absl::StrCat(field, " must be \"maps/{map_id}\", got ", Echo(name)));
   }
   absl::string_view id = name.substr(5);
   if (absl::Status s = ValidateMapId(id, field); !s.ok()) return s;
   return std::string(id);
+}
+
+double MaxCameraExtent(const MapConfig& config) {
+  return kMaxKey * config.resolution - config.integration.max_depth;
+}
+
+absl::Status ValidatePoseInMap(const perception::CameraPose& pose, const MapConfig& config,
+                               absl::string_view field) {
+  const double extent = MaxCameraExtent(config);
+  if ((pose.translation.array().abs() <= extent).all()) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(field, ".translation: (", pose.translation.x(), ", ", pose.translation.y(), ", ",
+                   pose.translation.z(), ") m is outside this map's extent of +-", extent,
+                   " m per axis (2^20 voxels of ", config.resolution, " m, less max_depth)"));
 }
 
 std::string MapName(absl::string_view map_id) { return absl::StrCat("maps/", map_id); }

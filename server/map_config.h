@@ -35,6 +35,15 @@ absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& options);
 // The options message with every field set, as GetMap returns it.
 v1::MapOptions ToProto(const MapConfig& config);
 
+// Half the extent a camera may be placed at in a map of this config, metres per axis: the
+// map's key range (2^20 voxels each way of the origin) less max_depth, so that every point
+// a frame can see has a key (±10.48 km at 1 cm, ±52.4 km at 5 cm, less 5 m by default).
+double MaxCameraExtent(const MapConfig& config);
+// OK if the camera position lies within ±MaxCameraExtent on every axis; InvalidArgument
+// "<field>.translation: ..." otherwise. `field` is "pose" or "updates[i].pose".
+absl::Status ValidatePoseInMap(const perception::CameraPose& pose, const MapConfig& config,
+                               absl::string_view field);
+
 // OK if `map_id` is 1-63 characters of [a-z0-9_-] starting with a letter; InvalidArgument
 // naming `field` otherwise.
 absl::Status ValidateMapId(absl::string_view map_id, absl::string_view field);

@@ -96,6 +96,16 @@ class VoxelBatch {
     });
   }
 
+  // Appends items (typically another batch's) as observations; Finalize merges them with
+  // the rest. Accumulates several frames into one batch.
+  void AddItems(std::span<const Item> items) {
+    if (items.empty()) return;
+    Reserve(n_ + items.size());
+    std::copy(items.begin(), items.end(), storage_.begin() + n_);
+    n_ += items.size();
+    finalized_ = false;
+  }
+
   // Sorts the items by key and merges duplicates, on the pool's threads if given. Cheap
   // when already finalized.
   void Finalize(ThreadPool* pool = nullptr);
