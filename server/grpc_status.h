@@ -16,9 +16,15 @@
 
 namespace skimap::server {
 
+// Status messages travel in response headers (grpc-message); longer ones are cut here so
+// that no message can overflow them. Messages echo client text through Echo() anyway.
+inline constexpr size_t kMaxStatusMessageBytes = 1024;
+
 inline grpc::Status ToGrpcStatus(const absl::Status& s) {
   if (s.ok()) return grpc::Status::OK;
-  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::string(s.message()));
+  std::string message(s.message().substr(0, kMaxStatusMessageBytes));
+  if (s.message().size() > kMaxStatusMessageBytes) message += "...";
+  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::move(message));
 }
 
 // Finishes a unary callback call with `result`: the value into *response, the status

@@ -7,6 +7,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "perception/echo.h"
 #include "perception/image_codec.h"
 #include "perception/objects/training.h"
 #include "server/object_codec.h"
@@ -66,7 +67,8 @@ absl::StatusOr<v1::Object> ObjectService::GetObject(const v1::GetObjectRequest& 
   absl::StatusOr<ObjectRegistry::ObjectView> v = registry_->Get(*id);
   if (!v.ok()) return v.status();
   const std::optional<objects::ObjectDatabaseParams> params = registry_->params();
-  if (!params) return absl::NotFoundError(absl::StrCat("object ", request.name(), " not found"));
+  if (!params)
+    return absl::NotFoundError(absl::StrCat("object ", Echo(request.name()), " not found"));
   v1::Object out = ToApiObject(v->object->model, *params, v->in_classifier);
   if (request.view() == v1::OBJECT_VIEW_FULL) {
     if (absl::Status s = AddRgbVoxels(v->object->model, params->resolution, &out); !s.ok()) {

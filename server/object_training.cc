@@ -3,6 +3,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "perception/echo.h"
 #include "perception/objects/training.h"
 #include "server/object_codec.h"
 #include "server/object_service.h"
@@ -102,8 +103,9 @@ absl::StatusOr<v1::Operation> ObjectService::TrainObjectFromDataset(
   } else if (fs::is_regular_file(root / "scene_gt.json", ec)) {
     scene = root;
   } else {
-    return absl::NotFoundError(absl::StrCat("dataset_path: neither ", train.string(),
-                                            " nor a BOP scene (scene_gt.json) at ", root.string()));
+    return absl::NotFoundError(
+        absl::StrCat("dataset_path: neither train/", absl::StrFormat("%06d", obj_id),
+                     " nor a BOP scene (scene_gt.json) at ", Echo(root.string())));
   }
   std::string name = request.display_name();
   if (name.empty() && scene == train) {

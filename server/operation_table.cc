@@ -5,6 +5,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "perception/echo.h"
 
 namespace skimap::server {
 
@@ -93,11 +94,12 @@ v1::Operation OperationTable::Snapshot(const Entry& e) const {
 absl::StatusOr<v1::Operation> OperationTable::Get(const std::string& name) const {
   if (!absl::StartsWith(name, "operations/")) {
     return absl::InvalidArgumentError(
-        absl::StrCat("name: \"", name, "\" is not an operation name operations/{id}"));
+        absl::StrCat("name: ", Echo(name), " is not an operation name operations/{id}"));
   }
   std::lock_guard<std::mutex> lock(mu_);
   auto it = ops_.find(name);
-  if (it == ops_.end()) return absl::NotFoundError(absl::StrCat("operation ", name, " not found"));
+  if (it == ops_.end())
+    return absl::NotFoundError(absl::StrCat("operation ", Echo(name), " not found"));
   return Snapshot(it->second);
 }
 

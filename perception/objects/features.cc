@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "perception/echo.h"
 
 namespace skimap::objects {
 namespace {
@@ -25,8 +26,8 @@ absl::StatusOr<std::string> CanonicalDetectorName(const std::string& detector) {
   std::string upper = detector;
   for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   if (upper == "ORB" || upper == "SIFT" || upper == "AKAZE" || upper == "BRISK") return upper;
-  return absl::InvalidArgumentError(absl::StrCat("detector: unknown feature detector \"", detector,
-                                                 "\" (want ORB, SIFT, AKAZE or BRISK)"));
+  return absl::InvalidArgumentError(absl::StrCat(
+      "detector: unknown feature detector ", Echo(detector), " (want ORB, SIFT, AKAZE or BRISK)"));
 }
 
 absl::StatusOr<DescriptorLayout> DetectorLayout(const std::string& detector) {
