@@ -3,6 +3,8 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 
@@ -12,7 +14,9 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<GrpcServer> s(new GrpcServer());
-  s->core_ = std::make_unique<MapService>(options.service);
+  MapService::Options service = options.service;
+  service.max_reply_bytes = std::min<size_t>(service.max_reply_bytes, options.max_message_bytes);
+  s->core_ = std::make_unique<MapService>(service);
   s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
   absl::StatusOr<std::unique_ptr<ObjectService>> objects = ObjectService::Create(options.objects);
   if (!objects.ok()) return objects.status();
@@ -30,6 +34,11 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   s->server_ = builder.BuildAndStart();
   if (s->server_ == nullptr || s->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.address));
+  }
+  // Health answers per service too ("" is the whole server, SERVING by default).
+  grpc::HealthCheckServiceInterface* health = s->server_->GetHealthCheckService();
+  for (const char* service : {"skimap.v1.MapService", "skimap.v1.ObjectService"}) {
+    health->SetServingStatus(service, true);
   }
   return s;
 }

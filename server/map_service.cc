@@ -5,6 +5,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "server/page_token.h"
 
 namespace skimap::server {
 namespace {
@@ -62,9 +63,10 @@ absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
   if (request.page_size() < 0 || request.page_size() > 1000) {
     return absl::InvalidArgumentError("page_size must be in 0..1000");
   }
+  const uint32_t query = QueryFingerprint(0, "ListMaps", "");
   std::string after;
   if (!request.page_token().empty()) {
-    absl::StatusOr<std::string> id = ParseMapName(request.page_token(), "page_token");
+    absl::StatusOr<std::string> id = DecodePageToken(request.page_token(), query);
     if (!id.ok()) return id.status();
     after = *id;
   }
@@ -72,7 +74,8 @@ absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
   std::vector<std::shared_ptr<LiveMap>> maps = registry_.List(after, limit + 1);
   v1::ListMapsResponse response;
   for (size_t i = 0; i < maps.size() && i < limit; ++i) *response.add_maps() = Describe(*maps[i]);
-  if (maps.size() > limit) response.set_next_page_token(MapName(maps[limit - 1]->id()));
+  if (maps.size() > limit)
+    response.set_next_page_token(EncodePageToken(query, maps[limit - 1]->id()));
   return response;
 }
 

@@ -30,6 +30,9 @@ class MapService {
     size_t max_frame_bytes = 64 << 20;  // encoded depth + colour; larger: ResourceExhausted
     size_t max_kept_frame_bytes = size_t{1} << 30;  // per map, for UpdatePoses
     size_t max_maps = 1000;
+    // Largest reply (the transport's message limit): grids and height maps that would not
+    // fit are refused with ResourceExhausted before they are computed.
+    size_t max_reply_bytes = 80 << 20;
   };
   explicit MapService(const Options& options);
   ~MapService();
@@ -48,7 +51,8 @@ class MapService {
   absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(
       const v1::GetOccupancyGridRequest& request) const;
   absl::StatusOr<v1::HeightMap> GetHeightMap(const v1::GetHeightMapRequest& request) const;
-  // One page of voxels; page tokens are opaque and stay valid while the map exists.
+  // One page of voxels; page tokens are opaque, bound to the map and the query (box,
+  // min_voxel_weight), and stay valid while the map exists.
   absl::StatusOr<v1::GetVoxelsResponse> GetVoxels(const v1::GetVoxelsRequest& request) const;
   absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(
       const v1::RadiusSearchRequest& request) const;

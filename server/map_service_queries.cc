@@ -6,6 +6,8 @@
 #include "absl/strings/str_cat.h"
 #include "server/free_space_grid.h"
 #include "server/map_service.h"
+#include "server/page_token.h"
+#include "skimap/encoding.h"
 #include "skimap/map_queries.h"
 
 namespace skimap::server {
@@ -23,6 +25,29 @@ absl::StatusOr<std::optional<Region2D>> ToRegion(const v1::Region2D& r, bool pre
     return absl::InvalidArgumentError("region must be finite with min <= max");
   }
   return Region2D{r.min_x(), r.min_y(), r.max_x(), r.max_y()};
+}
+
+// The request's min_voxel_weight, or the map's when absent; the same rule as CreateMap's.
+absl::StatusOr<float> MinWeight(bool present, float value, const MapConfig& config) {
+  if (!present) return config.min_voxel_weight;
+  if (!(value >= 0) || !std::isfinite(value)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_voxel_weight must be finite and >= 0, got ", value));
+  }
+  return value;
+}
+
+// Refuses, before anything is computed, a raster whose reply would not fit in
+// `max_reply_bytes` (the transport's message limit).
+absl::Status CheckRasterFits(const RasterGeometry& g, size_t bytes_per_cell, size_t max_reply_bytes,
+                             absl::string_view what) {
+  const uint64_t cells = uint64_t(g.width) * uint64_t(g.height);
+  constexpr size_t kEnvelopeBytes = 1024;  // the reply's other fields
+  if (cells * bytes_per_cell + kEnvelopeBytes <= max_reply_bytes) return absl::OkStatus();
+  return absl::ResourceExhaustedError(
+      absl::StrCat("region: the ", what, " would be ", g.width, " x ", g.height, " cells (",
+                   cells * bytes_per_cell, " bytes), above the reply limit of ", max_reply_bytes,
+                   " bytes (max_reply_bytes); ask for a smaller region"));
 }
 
 absl::Status PrefixField(const absl::Status& s, absl::string_view field) {
@@ -68,6 +93,21 @@ absl::StatusOr<KeyBox> ToKeyBox(const Grid& grid, const v1::GetVoxelsRequest& re
   return keys;
 }
 
+// What a GetVoxels page depends on but its position: the map (this incarnation of it), the
+// box and the weight filter. The page size may change from page to page.
+uint32_t VoxelQueryFingerprint(const LiveMap& map, const v1::GetVoxelsRequest& request) {
+  std::string filters;
+  Encoder e(&filters);
+  e.U8(request.has_box());
+  const v1::Box3& b = request.box();
+  for (double v : {b.min().x(), b.min().y(), b.min().z(), b.max().x(), b.max().y(), b.max().z()}) {
+    e.F64(v);
+  }
+  e.U8(request.has_min_voxel_weight());
+  e.F32(request.min_voxel_weight());
+  return QueryFingerprint(map.incarnation(), "GetVoxels", filters);
+}
+
 }  // namespace
 
 absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
@@ -83,7 +123,10 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   o.band_min_z = request.has_band_min_z() ? request.band_min_z() : c.band_min_z;
   o.band_max_z = request.has_band_max_z() ? request.band_max_z() : c.band_max_z;
   o.floor_min_z = request.has_floor_min_z() ? request.floor_min_z() : c.floor_min_z;
-  o.min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight() : c.min_voxel_weight;
+  absl::StatusOr<float> min_weight =
+      MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), c);
+  if (!min_weight.ok()) return min_weight.status();
+  o.min_weight = *min_weight;
   if (!std::isfinite(o.band_min_z) || !std::isfinite(o.band_max_z) ||
       !std::isfinite(o.floor_min_z) || !(o.floor_min_z <= o.band_min_z) ||
       !(o.band_min_z <= o.band_max_z)) {
@@ -93,15 +136,22 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   // One frame seeing through a column is evidence enough (not the surface threshold).
   constexpr float kMinFreeFrames = 1;
   v1::OccupancyGrid out;
-  absl::Status status =
-      (*map)->ReadWithFreeSpace([&](const Volume& volume, const FreeVolume& free, uint64_t frames) {
-        absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
-        if (!grid.ok()) return PrefixField(grid.status(), "region");
-        MarkCarvedCells(free, kMinFreeFrames, &*grid);
-        FillGeometry(grid->geometry, frames, &out);
-        out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
-        return absl::OkStatus();
-      });
+  absl::Status status = (*map)->ReadWithFreeSpace([&](const Volume& volume, const FreeVolume& free,
+                                                      uint64_t frames) {
+    absl::StatusOr<RasterGeometry> geometry = MakeRasterGeometry(
+        volume.grid(), o.region, o.region ? std::nullopt : volume.FootprintBounds());
+    if (!geometry.ok()) return PrefixField(geometry.status(), "region");
+    if (absl::Status s = CheckRasterFits(*geometry, 1, options_.max_reply_bytes, "occupancy grid");
+        !s.ok()) {
+      return s;
+    }
+    absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
+    if (!grid.ok()) return PrefixField(grid.status(), "region");
+    MarkCarvedCells(free, kMinFreeFrames, &*grid);
+    FillGeometry(grid->geometry, frames, &out);
+    out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
+    return absl::OkStatus();
+  });
   if (!status.ok()) return status;
   return out;
 }
@@ -115,10 +165,20 @@ absl::StatusOr<v1::HeightMap> MapService::GetHeightMap(
   HeightMapOptions o;
   o.region = *region;
   o.pool = pool_.get();
-  o.min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight()
-                                                : (*map)->config().min_voxel_weight;
+  absl::StatusOr<float> min_weight =
+      MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), (*map)->config());
+  if (!min_weight.ok()) return min_weight.status();
+  o.min_weight = *min_weight;
   v1::HeightMap out;
   absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t frames) {
+    absl::StatusOr<RasterGeometry> geometry = MakeRasterGeometry(
+        volume.grid(), o.region, o.region ? std::nullopt : volume.FootprintBounds());
+    if (!geometry.ok()) return PrefixField(geometry.status(), "region");
+    // Packed repeated float: 4 bytes a cell.
+    if (absl::Status s = CheckRasterFits(*geometry, 4, options_.max_reply_bytes, "height map");
+        !s.ok()) {
+      return s;
+    }
     absl::StatusOr<HeightMap> hm = ComputeHeightMap(volume, o);
     if (!hm.ok()) return PrefixField(hm.status(), "region");
     FillGeometry(hm->geometry, frames, &out);
@@ -137,13 +197,20 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
     return absl::InvalidArgumentError(absl::StrCat("page_size must be in 0..", kMaxVoxelPage));
   }
   const size_t page = request.page_size() == 0 ? kDefaultVoxelPage : request.page_size();
+  absl::StatusOr<float> min_weight =
+      MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), (*map)->config());
+  if (!min_weight.ok()) return min_weight.status();
+  const uint32_t query = VoxelQueryFingerprint(**map, request);
   uint64_t start_packed = 0;
-  if (!request.page_token().empty() && (!absl::SimpleAtoi(request.page_token(), &start_packed) ||
-                                        start_packed >= (uint64_t{1} << (3 * kKeyBits)))) {
-    return absl::InvalidArgumentError("page_token is not a token from GetVoxels");
+  if (!request.page_token().empty()) {
+    absl::StatusOr<std::string> position = DecodePageToken(request.page_token(), query);
+    if (!position.ok()) return position.status();
+    Decoder d(*position);
+    if (!d.U64(&start_packed) || d.remaining() != 0 ||
+        start_packed >= (uint64_t{1} << (3 * kKeyBits))) {
+      return absl::InvalidArgumentError("page_token: not a GetVoxels position");
+    }
   }
-  const float min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight()
-                                                          : (*map)->config().min_voxel_weight;
   v1::GetVoxelsResponse out;
   absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t) -> absl::Status {
     const Grid& grid = volume.grid();
@@ -165,7 +232,7 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
       slab.min.x = x0;
       slab.max.x = std::min<int64_t>(int64_t{x0} + kSlab - 1, scan.max.x);
       volume.ForEachInBox(slab, [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
-        if (next || PackKey(k) < start_packed || v.Weight() < min_weight) return;
+        if (next || PackKey(k) < start_packed || v.Weight() < *min_weight) return;
         if (size_t(out.voxels_size()) == page) {
           next = k;
           return;
@@ -173,7 +240,11 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
         FillVoxel(grid, k, v, out.add_voxels());
       });
     }
-    if (next) out.set_next_page_token(absl::StrCat(PackKey(*next)));
+    if (next) {
+      std::string position;
+      Encoder(&position).U64(PackKey(*next));
+      out.set_next_page_token(EncodePageToken(query, position));
+    }
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
@@ -196,13 +267,14 @@ absl::StatusOr<v1::RadiusSearchResponse> MapService::RadiusSearch(
         absl::StrCat("max_results must be in 0..", kMaxRadiusResults));
   }
   const int limit = request.max_results() == 0 ? kDefaultRadiusResults : request.max_results();
-  const float min_weight = request.has_min_voxel_weight() ? request.min_voxel_weight()
-                                                          : (*map)->config().min_voxel_weight;
+  absl::StatusOr<float> min_weight =
+      MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), (*map)->config());
+  if (!min_weight.ok()) return min_weight.status();
   v1::RadiusSearchResponse out;
   (*map)->Read([&](const Volume& volume, uint64_t) {
     volume.RadiusSearch({c.x(), c.y(), c.z()}, request.radius(),
                         [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
-                          if (v.Weight() < min_weight) return;
+                          if (v.Weight() < *min_weight) return;
                           if (out.voxels_size() == limit) {
                             out.set_truncated(true);
                             return;
