@@ -6,7 +6,7 @@ set -euo pipefail
 pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libeigen3-dev libopencv-dev libsqlite3-dev libzstd-dev nlohmann-json3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev opencv-doc)
+  libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto)
 if [[ "${1:-}" == "--bench" ]]; then
   pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev)
 fi
