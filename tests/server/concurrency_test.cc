@@ -5,16 +5,19 @@
 
 #include <atomic>
 #include <future>
+#include <set>
+#include <string>
 #include <thread>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "server/map_service.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {
 
-TEST(MapServiceConcurrencyTest, QueriesSeeWholeFramesWhileFramesStreamIn) {
+TEST(MapServiceConcurrencyTest, QueriesAnswerWhileTwoStreamsFeedOneMap) {
   server::MapService service({.worker_threads = 2, .queue_capacity = 8});
   v1::CreateMapRequest create;
   create.set_map_id("busy");
@@ -82,6 +85,143 @@ TEST(MapServiceConcurrencyTest, QueriesSeeWholeFramesWhileFramesStreamIn) {
   v1::GetMapRequest info;
   info.set_name("maps/busy");
   EXPECT_EQ(service.GetMap(info)->stats().frames(), uint64_t(kFrames));
+}
+
+// A fingerprint of the whole voxel set (centres and weights) read in one snapshot: one
+// GetVoxels page holds the whole small map.
+std::string VoxelSet(const server::MapService& service, const std::string& map) {
+  v1::GetVoxelsRequest request;
+  request.set_map(map);
+  request.set_page_size(100000);
+  request.set_min_voxel_weight(0);
+  absl::StatusOr<v1::GetVoxelsResponse> page = service.GetVoxels(request);
+  if (!page.ok() || !page->next_page_token().empty()) return "error";
+  std::string out;
+  for (const v1::Voxel& v : page->voxels()) {
+    absl::StrAppend(&out, v.center().x(), ",", v.center().y(), ",", v.center().z(), ":", v.weight(),
+                    ";");
+  }
+  return out;
+}
+
+const SyntheticCamera kSmall{.width = 64, .height = 48, .fx = 48, .fy = 48, .cx = 31.5, .cy = 23.5};
+
+std::shared_ptr<const v1::Frame> SceneFrame(const std::string& map, int i) {
+  Eigen::Isometry3d pose = DefaultView();
+  pose.translation().y() += 0.05 * i;
+  return std::make_shared<v1::Frame>(MakeFrame(map, i, pose, kSmall));
+}
+
+absl::StatusOr<v1::FrameAck> IntegrateNow(server::MapService& service,
+                                          std::shared_ptr<const v1::Frame> frame) {
+  std::promise<absl::StatusOr<v1::FrameAck>> done;
+  service.IntegrateFrame(std::move(frame),
+                         [&](absl::StatusOr<v1::FrameAck> ack) { done.set_value(std::move(ack)); });
+  return done.get_future().get();
+}
+
+TEST(MapServiceConcurrencyTest, ReadersSeeTheVoxelSetOfAWholeNumberOfFrames) {
+  constexpr int kFrames = 16;
+  // The voxel set after each whole number of frames, from a service nobody else touches.
+  std::set<std::string> whole;
+  {
+    server::MapService reference({.worker_threads = 1});
+    v1::CreateMapRequest create;
+    create.set_map_id("ref");
+    ASSERT_TRUE(reference.CreateMap(create).ok());
+    whole.insert(VoxelSet(reference, "maps/ref"));
+    for (int i = 0; i < kFrames; ++i) {
+      ASSERT_TRUE(IntegrateNow(reference, SceneFrame("maps/ref", i)).ok());
+      whole.insert(VoxelSet(reference, "maps/ref"));
+    }
+  }
+  ASSERT_EQ(whole.size(), size_t(kFrames) + 1);  // every frame changes the set
+
+  server::MapService service({.worker_threads = 2, .queue_capacity = 8});
+  v1::CreateMapRequest create;
+  create.set_map_id("ref");  // the same id: the fingerprints hold voxel centres only
+  ASSERT_TRUE(service.CreateMap(create).ok());
+  std::atomic<bool> streaming{true};
+  std::atomic<int> torn{0}, reads{0};
+  auto reader = [&] {
+    while (streaming.load()) {
+      if (!whole.contains(VoxelSet(service, "maps/ref"))) ++torn;
+      ++reads;
+    }
+  };
+  std::thread r1(reader), r2(reader);
+  // One writer with two frames in flight: the map integrates them in order.
+  std::vector<std::future<absl::StatusOr<v1::FrameAck>>> acks;
+  for (int i = 0; i < kFrames; ++i) {
+    if (i >= 2) ASSERT_TRUE(acks[i - 2].get().ok());
+    auto promise = std::make_shared<std::promise<absl::StatusOr<v1::FrameAck>>>();
+    acks.push_back(promise->get_future());
+    service.IntegrateFrame(SceneFrame("maps/ref", i),
+                           [promise](absl::StatusOr<v1::FrameAck> a) { promise->set_value(a); });
+  }
+  for (int i = kFrames - 2; i < kFrames; ++i) ASSERT_TRUE(acks[i].get().ok());
+  streaming = false;
+  r1.join();
+  r2.join();
+  EXPECT_EQ(torn.load(), 0) << "of " << reads.load() << " reads";
+  EXPECT_GT(reads.load(), 0);
+  EXPECT_EQ(VoxelSet(service, "maps/ref"), VoxelSet(service, "maps/ref"));
+  EXPECT_TRUE(whole.contains(VoxelSet(service, "maps/ref")));
+}
+
+TEST(MapServiceConcurrencyTest, UpdatePosesAppliesEveryCorrectionInOneSnapshot) {
+  constexpr int kFrames = 8;
+  server::MapService service({.worker_threads = 2, .queue_capacity = 8});
+  v1::CreateMapRequest create;
+  create.set_map_id("loop");
+  create.mutable_options()->set_carve_free_space(true);
+  ASSERT_TRUE(service.CreateMap(create).ok());
+  for (int i = 0; i < kFrames; ++i)
+    ASSERT_TRUE(IntegrateNow(service, SceneFrame("maps/loop", i)).ok());
+  // A loop closure moving every frame, and its inverse.
+  auto update = [&](double dx) {
+    auto request = std::make_shared<v1::UpdatePosesRequest>();
+    request->set_map("maps/loop");
+    for (int i = 0; i < kFrames; ++i) {
+      Eigen::Isometry3d pose = DefaultView();
+      pose.translation().y() += 0.05 * i;
+      pose.translation().x() += dx;
+      v1::PoseUpdate* u = request->add_updates();
+      u->set_sequence(i);
+      SetPose(pose, u->mutable_pose());
+    }
+    std::promise<absl::Status> done;
+    service.UpdatePoses(
+        request, [&](absl::StatusOr<v1::UpdatePosesResponse> r) { done.set_value(r.status()); });
+    return done.get_future().get();
+  };
+  const std::string before = VoxelSet(service, "maps/loop");
+  ASSERT_TRUE(update(0.37).ok());
+  const std::string after = VoxelSet(service, "maps/loop");
+  ASSERT_NE(before, after);
+  ASSERT_TRUE(update(0).ok());
+  ASSERT_EQ(VoxelSet(service, "maps/loop"), before);  // exact inverse
+
+  std::atomic<bool> running{true};
+  std::atomic<int> half{0}, reads{0};
+  auto reader = [&] {
+    while (running.load()) {
+      const std::string seen = VoxelSet(service, "maps/loop");
+      if (seen != before && seen != after) ++half;
+      ++reads;
+    }
+  };
+  std::thread r1(reader), r2(reader);
+  for (int round = 0; round < 6; ++round) {
+    ASSERT_TRUE(update(0.37).ok());
+    ASSERT_TRUE(update(0).ok());
+  }
+  running = false;
+  r1.join();
+  r2.join();
+  EXPECT_EQ(half.load(), 0) << "readers saw half a loop closure in " << half.load() << " of "
+                            << reads.load() << " reads";
+  EXPECT_GT(reads.load(), 0);
 }
 
 TEST(MapServiceConcurrencyTest, DeleteWhileFramesAreQueuedAnswersEveryFrame) {

@@ -1,0 +1,116 @@
+// SkimapdProcess: a real skimapd child process on a free loopback port, for tests that must
+// hold against the daemon itself (a crash ends the process, not only a call).
+//
+//   SkimapdProcess server(SKIMAPD_PATH, {"--worker_threads=1"});
+//   ASSERT_TRUE(server.Start().ok());
+//   auto client = client::MapClient::Connect(server.address());
+//   ...
+//   EXPECT_TRUE(server.Running());   // still alive after what the test sent
+//
+// The destructor kills the process (SIGKILL) if the test did not Stop() it.
+//
+// Thread safety: a test-thread object.
+#ifndef TESTS_COMMON_SKIMAPD_PROCESS_H_
+#define TESTS_COMMON_SKIMAPD_PROCESS_H_
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "client/map_client.h"
+#include "tests/common/free_port.h"
+
+namespace skimap::testing {
+
+class SkimapdProcess {
+ public:
+  SkimapdProcess(std::string binary, std::vector<std::string> flags)
+      : binary_(std::move(binary)), flags_(std::move(flags)) {}
+  ~SkimapdProcess() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    if (!data_dir_.empty()) std::filesystem::remove_all(data_dir_);
+  }
+  SkimapdProcess(const SkimapdProcess&) = delete;
+  SkimapdProcess& operator=(const SkimapdProcess&) = delete;
+
+  // Forks skimapd on 127.0.0.1:<free port> with a fresh data dir and waits until it
+  // accepts calls (Unavailable after 20 s).
+  absl::Status Start() {
+    address_ = absl::StrCat("127.0.0.1:", FreePort());
+    data_dir_ = (std::filesystem::temp_directory_path() /
+                 absl::StrCat("skimapd_test_", getpid(), "_", ++count_))
+                    .string();
+    std::filesystem::create_directories(data_dir_);
+    std::vector<std::string> args = {binary_, "--address=" + address_,
+                                     "--data_dir=" + data_dir_ + "/data"};
+    args.insert(args.end(), flags_.begin(), flags_.end());
+    pid_ = fork();
+    if (pid_ < 0) return absl::InternalError("fork failed");
+    if (pid_ == 0) {
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(binary_.c_str(), argv.data());
+      _exit(127);
+    }
+    return client::MapClient::Connect(address_)->WaitForServer(absl::Seconds(20));
+  }
+
+  // True while the process has not exited.
+  bool Running() {
+    if (pid_ <= 0) return false;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) == 0) return true;
+    pid_ = -1;
+    return false;
+  }
+
+  // SIGTERM, then the exit code (-1 if it died of a signal).
+  int Stop() {
+    if (pid_ <= 0) return -1;
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+  // Peak resident memory of the process so far (VmHWM), bytes; 0 if unknown.
+  size_t PeakRssBytes() const {
+    std::ifstream status(absl::StrCat("/proc/", pid_, "/status"));
+    std::string key;
+    while (status >> key) {
+      if (key == "VmHWM:") {
+        size_t kb = 0;
+        status >> kb;
+        return kb * 1024;
+      }
+      status.ignore(256, '\n');
+    }
+    return 0;
+  }
+
+  const std::string& address() const { return address_; }
+
+ private:
+  static inline int count_ = 0;
+  const std::string binary_;
+  const std::vector<std::string> flags_;
+  std::string address_, data_dir_;
+  pid_t pid_ = -1;
+};
+
+}  // namespace skimap::testing
+
+#endif  // TESTS_COMMON_SKIMAPD_PROCESS_H_
