@@ -42,8 +42,30 @@ const ObjectDatabase& OrbDatabase() {
   return *db;
 }
 
+// A floor that keeps two thirds of a measured rate's margin over chance: a regression that
+// loses a third of what the pipeline adds to guessing fails (and the floor is never below
+// 0.67 x measured).
+double FloorAboveChance(double measured, double chance) {
+  return chance + (measured - chance) * 2 / 3;
+}
+
+// What HeldOutViewsAreClassifiedToTheRightObject measured on 2026-11-23 (deterministic for
+// the seeds: the same values on every run and thread count). Per object: boxgreen (1),
+// cereal (2), teabox (3); the cereal box repeats its texture on opposite faces.
+struct Measured {
+  const char* detector;
+  double top1, verified;      // all held-out features
+  double object_verified[3];  // per object
+};
+constexpr Measured kMeasured[] = {
+    {"ORB", 0.687, 0.745, {0.847, 0.610, 0.731}},
+    {"SIFT", 0.732, 0.967, {0.986, 0.939, 0.968}},
+};
+
 TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
-  for (const char* detector : {"ORB", "SIFT"}) {
+  constexpr double kChance = 1.0 / 3;  // 3 objects
+  for (const Measured& m : kMeasured) {
+    const char* detector = m.detector;
     absl::StatusOr<ObjectDatabase> db =
         std::string(detector) == "ORB"
             ? absl::StatusOr<ObjectDatabase>(OrbDatabase())
@@ -57,16 +79,22 @@ TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
     std::printf("[ measured ] %s: feature top-1 %.3f, verified precision %.3f, views %d/%d\n",
                 detector, total.Top1Rate(), total.VerifiedPrecision(), total.views_correct,
                 total.views);
-    for (const ObjectAccuracy& a : *acc) {
+    ASSERT_EQ(acc->size(), 3u);
+    for (size_t i = 0; i < acc->size(); ++i) {
+      const ObjectAccuracy& a = (*acc)[i];
+      std::printf("[ measured ] %s object %d: views %d/%d, verified precision %.3f\n", detector,
+                  a.obj_id, a.views_correct, a.views, a.VerifiedPrecision());
       EXPECT_EQ(a.views, 6) << detector << " object " << a.obj_id;
       EXPECT_GT(a.features, 0);
-      // Per object, most held-out views are recognised (measured: 6/6 for every object).
+      // Per object, held-out views are recognised (measured: 6/6 for every object and both
+      // detectors; 5/6 keeps above a third's regression, chance reaches it 2 % of the time).
       EXPECT_GE(a.views_correct, 5) << detector << " object " << a.obj_id;
+      EXPECT_GE(a.VerifiedPrecision(), FloorAboveChance(m.object_verified[i], kChance))
+          << detector << " object " << a.obj_id << " (measured " << m.object_verified[i] << ")";
     }
-    // Measured (3 objects, chance = 1/3): feature top-1 ORB 0.687, SIFT 0.732; verified
-    // precision ORB 0.745, SIFT 0.967; views 18/18 for both.
-    EXPECT_GT(total.Top1Rate(), 0.55) << detector;
-    EXPECT_GT(total.VerifiedPrecision(), 0.6) << detector;
+    // Floors: ORB top-1 0.569, verified 0.608; SIFT top-1 0.599, verified 0.756.
+    EXPECT_GE(total.Top1Rate(), FloorAboveChance(m.top1, kChance)) << detector;
+    EXPECT_GE(total.VerifiedPrecision(), FloorAboveChance(m.verified, kChance)) << detector;
   }
 }
 
@@ -121,18 +149,19 @@ TEST(ObjectPipelineTest, ClassesMapBackToTheRightObjectAndVoxel) {
       chance += double(near) / db.stack().used(1);
     }
   }
-  ASSERT_GT(errors.size(), 50u);
+  ASSERT_GE(errors.size(), 415u);  // measured 623 verified predictions (2026-11-23); 2/3
   const double hits =
       std::count_if(errors.begin(), errors.end(), [](double e) { return e < 0.02; });
   const double rate = hits / errors.size();
   chance /= errors.size();
-  // Measured: 36% of verified predictions land within 2 cm of the true point (the cereal
-  // box repeats its texture on opposite faces, which takes most of the rest), against 3.7%
-  // for a random stacked voxel of the object.
+  // Measured 2026-11-23: 36.1 % of verified predictions land within 2 cm of the true point
+  // (the cereal box repeats its texture on opposite faces, which takes most of the rest),
+  // against 3.7 % for a random stacked voxel of the object: 9.8 x chance. Floors: two
+  // thirds of the margin over chance (0.253), and 6.5 x chance (two thirds of 9.8).
   std::printf("[ measured ] within 2 cm: %.3f, chance %.3f (%zu predictions)\n", rate, chance,
               errors.size());
-  EXPECT_GT(rate, 0.25);
-  EXPECT_GT(rate, 5 * chance) << "chance " << chance;
+  EXPECT_GE(rate, FloorAboveChance(0.361, chance));
+  EXPECT_GE(rate, 6.5 * chance) << "chance " << chance;
 }
 
 TEST(ObjectPipelineTest, CentroidMemoryGrowsSlowerThanRawDescriptors) {
@@ -163,7 +192,7 @@ TEST(ObjectPipelineTest, RgbVolumeHoldsTheObject) {
   const ObjectModel& o = OrbDatabase().objects().at(0);  // boxgreen: a textured 5 cm cube
   auto map = DeserializeMap<RGBWeightedVoxel>(o.rgb_volume, {});
   ASSERT_TRUE(map.ok()) << map.status();
-  ASSERT_GT((*map)->size(), 50u);
+  ASSERT_GE((*map)->size(), 90u);  // measured 136 voxels (2026-11-23); two thirds
   cv::Scalar mean(0, 0, 0);
   double weight = 0;
   (*map)->ForEach([&](const VoxelKey& k, const RGBWeightedVoxel& v) {
@@ -172,13 +201,15 @@ TEST(ObjectPipelineTest, RgbVolumeHoldsTheObject) {
     mean += cv::Scalar(v.b, v.g, v.r);
     weight += v.weight;
   });
-  // Its colour is the colour of the object's pixels (first training view).
+  // Its colour is the colour of the object's pixels (first training view). Measured
+  // 2026-11-23: the volume is 12-14 levels darker per channel (it averages every training
+  // view, lit from other sides); 4/3 of the largest is 19.
   absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(MiniDataset() + "/train/000001");
   ASSERT_TRUE(seq.ok());
   auto img = dataset::LoadFrameImages(seq->frames[0], true);
   ASSERT_TRUE(img.ok());
   const cv::Scalar pixels = cv::mean(img->rgb, img->masks[0]);
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c] / weight, pixels[c], 30) << "channel " << c;
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c] / weight, pixels[c], 19) << "channel " << c;
 }
 
 TEST(ObjectPipelineTest, DatabaseRoundTripsThroughSqlite) {
