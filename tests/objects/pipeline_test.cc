@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/str_format.h"
 #include "dataset/reader.h"
 #include "perception/objects/database_io.h"
 #include "perception/objects/evaluation.h"
@@ -164,28 +165,68 @@ TEST(ObjectPipelineTest, ClassesMapBackToTheRightObjectAndVoxel) {
   EXPECT_GE(rate, 6.5 * chance) << "chance " << chance;
 }
 
-TEST(ObjectPipelineTest, CentroidMemoryGrowsSlowerThanRawDescriptors) {
-  // Paper Fig. 4: adding a second orbit (variant) adds descriptors, but mean shift keeps
-  // the stored centroids from growing as fast.
+TEST(ObjectPipelineTest, CentroidMemorySaturatesWhileRawDescriptorsGrowLinearly) {
+  // Paper Fig. 4: more evidence of an object (denser views, then a second orbit — a
+  // "variant") grows the raw descriptors linearly but the stored centroids less and less:
+  // mean shift folds the new evidence into existing clusters (higher cardinality) instead
+  // of adding memory. Evidence doubles at each step: 3, 6, 12 views of the first orbit
+  // (120, 60, 30 degrees apart), then both orbits (24 views).
+  //
+  // Measured 2026-11-23 (deterministic), centroid bytes / raw bytes at 3, 6, 12, 24 views:
+  //   boxgreen (1): 17064/26880, 27684/54560, 34668/110144, 43056/241056
+  //     centroids x1.62, x1.25, x1.24 per doubling; x2.52 overall while raw grows x8.97
+  //   teabox (3):   27432/34240, 49932/72000, 79200/140384, 113940/347104
+  //     centroids x1.82, x1.59, x1.44 per doubling; x4.15 overall while raw grows x10.1
+  // (The cereal box, object 2, is left out: its second orbit sees faces the first did not,
+  // 296 -> 468 voxels, and new surface rightly needs new centroids.)
+  // Bounds, lower is better, 4/3 of the measured values: centroid growth over raw growth
+  // <= 0.375 / 0.546 (proportional growth gives 1); the variant's doubling <= x1.32 /
+  // x1.59 (its excess over 1 times 4/3); and the last doubling grows less than the first.
+  struct Case {
+    int obj_id;
+    double max_growth_ratio, max_last_growth;
+  };
   absl::StatusOr<ObjectDatabaseParams> p = ResolveParams(Params("ORB"));
   ASSERT_TRUE(p.ok());
-  const std::string dir = MiniDataset() + "/train/000002";
-  auto one = TrainObject(dir, 2, "", *p, {.use_frame = [](int, int id) { return id < 12; }});
-  auto two = TrainObject(dir, 2, "", *p, {});
-  ASSERT_TRUE(one.ok() && two.ok());
-  const ObjectTrainingStats &a = one->model.stats, &b = two->model.stats;
-  EXPECT_EQ(b.frames, 2 * a.frames);
-  const double raw_growth = double(b.raw_descriptor_bytes) / a.raw_descriptor_bytes;
-  const double centroid_growth = double(b.centroid_bytes) / a.centroid_bytes;
-  EXPECT_GT(raw_growth, 1.6);
-  // Measured on mini (12 views per orbit, 30 degrees apart): centroids take 0.55 of the raw
-  // bytes after one variant and 0.54 after two; they never grow faster than the evidence.
-  std::printf("[ measured ] centroid/raw bytes: %.3f (1 variant), %.3f (2 variants)\n",
-              double(a.centroid_bytes) / a.raw_descriptor_bytes,
-              double(b.centroid_bytes) / b.raw_descriptor_bytes);
-  EXPECT_LE(centroid_growth, raw_growth);
-  EXPECT_LT(double(a.centroid_bytes) / a.raw_descriptor_bytes, 0.7);
-  EXPECT_LT(double(b.centroid_bytes) / b.raw_descriptor_bytes, 0.7);
+  for (const Case& c : {Case{1, 0.375, 1.32}, Case{3, 0.546, 1.59}}) {
+    const std::string dir = absl::StrFormat("%s/train/%06d", MiniDataset(), c.obj_id);
+    std::vector<ObjectTrainingStats> steps;
+    constexpr std::pair<int, int> kViews[] = {{12, 4}, {12, 2}, {12, 1}, {24, 1}};  // id <, id %
+    for (const std::pair<int, int>& v : kViews) {
+      auto o = TrainObject(dir, c.obj_id, "", *p, {.use_frame = [v](int, int id) {
+                             return id < v.first && id % v.second == 0;
+                           }});
+      ASSERT_TRUE(o.ok()) << o.status();
+      steps.push_back(o->model.stats);
+    }
+    std::printf("[ measured ] object %d centroid/raw bytes:", c.obj_id);
+    for (const ObjectTrainingStats& s : steps) {
+      std::printf(" %lld/%lld", static_cast<long long>(s.centroid_bytes),
+                  static_cast<long long>(s.raw_descriptor_bytes));
+    }
+    std::printf("\n");
+    for (size_t i = 1; i < steps.size(); ++i) {
+      EXPECT_EQ(steps[i].frames, 2 * steps[i - 1].frames);
+      // Raw descriptors grow with the evidence: each doubling of views doubles them
+      // (measured x2.02-x2.47).
+      const double raw = double(steps[i].raw_descriptor_bytes) / steps[i - 1].raw_descriptor_bytes;
+      EXPECT_GE(raw, 1.8) << "object " << c.obj_id << " step " << i;
+      // Cardinality grows: each step stores fewer centroid bytes per raw byte.
+      EXPECT_LT(double(steps[i].centroid_bytes) / steps[i].raw_descriptor_bytes,
+                double(steps[i - 1].centroid_bytes) / steps[i - 1].raw_descriptor_bytes)
+          << "object " << c.obj_id << " step " << i;
+    }
+    auto growth = [&](size_t from, size_t to, auto field) {
+      return double(steps[to].*field) / steps[from].*field;
+    };
+    const double raw_growth = growth(0, 3, &ObjectTrainingStats::raw_descriptor_bytes);
+    const double centroid_growth = growth(0, 3, &ObjectTrainingStats::centroid_bytes);
+    EXPECT_LE(centroid_growth / raw_growth, c.max_growth_ratio) << "object " << c.obj_id;
+    const double first = growth(0, 1, &ObjectTrainingStats::centroid_bytes);
+    const double last = growth(2, 3, &ObjectTrainingStats::centroid_bytes);
+    EXPECT_LE(last, c.max_last_growth) << "object " << c.obj_id;
+    EXPECT_LT(last, first) << "object " << c.obj_id;
+  }
 }
 
 TEST(ObjectPipelineTest, RgbVolumeHoldsTheObject) {
