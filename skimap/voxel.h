@@ -10,6 +10,7 @@
 #ifndef SKIMAP_VOXEL_H_
 #define SKIMAP_VOXEL_H_
 
+#include <cmath>
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
@@ -51,7 +52,10 @@ struct WeightVoxel {
   float Weight() const { return weight; }
   size_t HeapBytes() const { return 0; }
   void Encode(Encoder& e) const { e.F32(weight); }
-  static bool Decode(Decoder& d, WeightVoxel* v) { return d.F32(&v->weight); }
+  // Rejects a non-finite weight (it would pass every weight threshold or none).
+  static bool Decode(Decoder& d, WeightVoxel* v) {
+    return d.F32(&v->weight) && std::isfinite(v->weight);
+  }
 };
 
 // Weighted colour: sums of colour*weight and of weights, so that integration and
@@ -93,8 +97,11 @@ struct RGBWeightedVoxel {
     e.F32(b);
     e.F32(weight);
   }
+  // Rejects non-finite sums (they would poison every mean colour and weight threshold).
   static bool Decode(Decoder& d, RGBWeightedVoxel* v) {
-    return d.F32(&v->r) && d.F32(&v->g) && d.F32(&v->b) && d.F32(&v->weight);
+    return d.F32(&v->r) && d.F32(&v->g) && d.F32(&v->b) && d.F32(&v->weight) &&
+           std::isfinite(v->r) && std::isfinite(v->g) && std::isfinite(v->b) &&
+           std::isfinite(v->weight);
   }
 };
 

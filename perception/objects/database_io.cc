@@ -164,6 +164,12 @@ absl::StatusOr<ObjectDatabase> FromStoredRecords(const storage::StoredObjectData
   if (static_cast<int>(layout->kind) != r.descriptor_kind || layout->dims != r.descriptor_dims) {
     return absl::DataLossError("object_db: descriptor layout does not match the detector");
   }
+  // The object_db row repeats three training parameters: a row that disagrees is corrupt.
+  if (r.detector != params->features.detector || r.resolution != params->resolution ||
+      r.classes_per_object != params->classes_per_object) {
+    return absl::DataLossError(
+        "object_db: detector, resolution or classes_per_object contradicts training_params");
+  }
   std::vector<ObjectModel> objects;
   for (const storage::StoredObject& so : r.objects) {
     ObjectModel o;
@@ -200,6 +206,9 @@ absl::StatusOr<ObjectDatabase> FromStoredRecords(const storage::StoredObjectData
   if (!r.forest.empty()) {
     absl::StatusOr<RandomForest> f = RandomForest::Deserialize(r.forest);
     if (!f.ok()) return f.status();
+    if (f->num_trees() != r.forest_trees || f->num_classes() != r.forest_classes) {
+      return absl::DataLossError("forest: trees or num_classes contradict the forest blob");
+    }
     forest = *std::move(f);
   }
   return ObjectDatabase::Create(*std::move(params), std::move(objects), std::move(forest));

@@ -1,5 +1,6 @@
 // RandomForest prediction, memory accounting and serialization.
 #include <algorithm>
+#include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "perception/objects/random_forest.h"
@@ -92,7 +93,11 @@ absl::StatusOr<RandomForest> RandomForest::Deserialize(std::string_view bytes) {
     return absl::InvalidArgumentError(
         absl::StrCat("forest blob: version ", version, " unsupported (want ", kForestVersion, ")"));
   }
-  if (d.remaining() != trees * 4ull + nodes * 16 + leaves * 8) {
+  // Each count must fit the bytes on its own before the sizes are added: a count near 2^60
+  // would otherwise wrap the sum back to the real size and allocate that many nodes.
+  const uint64_t remaining = d.remaining();
+  if (nodes > remaining / 16 || leaves > remaining / 8 ||
+      remaining != trees * 4ull + nodes * 16 + leaves * 8) {
     return absl::DataLossError("forest blob: size does not match its counts");
   }
   RandomForest f;
@@ -112,9 +117,10 @@ absl::StatusOr<RandomForest> RandomForest::Deserialize(std::string_view bytes) {
   for (size_t i = 0; i < f.nodes_.size(); ++i) {
     const Node& n = f.nodes_[i];
     if (n.feature >= 0) {
-      // Children come after their parent (depth-first layout): no cycles.
+      // Children come after their parent (depth-first layout): no cycles. A non-finite
+      // threshold would send every sample the same way.
       if (n.feature >= static_cast<int32_t>(dims) || n.a <= i || n.b <= i || n.a >= nodes ||
-          n.b >= nodes) {
+          n.b >= nodes || !std::isfinite(n.threshold)) {
         return absl::InvalidArgumentError(absl::StrCat("forest blob: node ", i, " malformed"));
       }
     } else if (n.feature != -1 || uint64_t{n.a} + n.b > leaves) {
@@ -123,6 +129,9 @@ absl::StatusOr<RandomForest> RandomForest::Deserialize(std::string_view bytes) {
   }
   for (const LeafEntry& l : f.leaves_) {
     if (l.cls >= classes) return absl::InvalidArgumentError("forest blob: class out of range");
+    if (!(l.fraction >= 0 && l.fraction <= 1)) {
+      return absl::InvalidArgumentError("forest blob: leaf fraction outside [0, 1]");
+    }
   }
   return f;
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <map>
 #include <set>
 
 #include "server/object_codec.h"
@@ -25,24 +26,51 @@ v1::BuildClassifierRequest SmallForest() {
   return r;
 }
 
-// Held-out views of obj_id whose most voted object is obj_id, and how many views there are.
-std::pair<int, int> ViewsRecognized(client::ObjectClient& c, int obj_id) {
-  int right = 0, total = 0;
-  for (const v1::ClassifyImageRequest& view : HeldOutImages(obj_id)) {
+// ClassifyImage over the held-out views of obj_id, summed.
+struct ViewStats {
+  int views = 0;
+  int right_views = 0;       // views whose most voted object is `as`
+  uint64_t features = 0;     // detected in the masks
+  uint64_t verified = 0;     // with a verified prediction (a vote)
+  uint64_t right_votes = 0;  // votes for `as`
+  double VoteShare() const { return verified ? double(right_votes) / verified : 0; }
+  double VerifiedRate() const { return features ? double(verified) / features : 0; }
+};
+
+ViewStats ClassifyViews(client::ObjectClient& c, int view_obj_id, int as) {
+  ViewStats s;
+  for (const v1::ClassifyImageRequest& view : HeldOutImages(view_obj_id)) {
     absl::StatusOr<v1::ClassifyImageResponse> r = c.ClassifyImage(view);
     EXPECT_TRUE(r.ok()) << r.status();
-    ++total;
-    if (r.ok() && !r->objects().empty() && r->objects(0).object() == ObjectName(obj_id)) ++right;
+    ++s.views;
+    if (!r.ok()) continue;
+    s.features += r->features();
+    s.verified += r->verified();
+    for (const v1::ObjectVotes& v : r->objects()) {
+      if (v.object() == ObjectName(as)) s.right_votes += v.votes();
+    }
+    if (!r->objects().empty() && r->objects(0).object() == ObjectName(as)) ++s.right_views;
   }
-  return {right, total};
+  std::fprintf(stderr,
+               "[ measured ] views of objects/%d as objects/%d: %d/%d views, %llu of %llu votes "
+               "(%.3f), %llu of %llu features verified (%.3f)\n",
+               view_obj_id, as, s.right_views, s.views, (unsigned long long)s.right_votes,
+               (unsigned long long)s.verified, s.VoteShare(), (unsigned long long)s.verified,
+               (unsigned long long)s.features, s.VerifiedRate());
+  return s;
 }
 
-// Most held-out views of obj_id are recognized (measured: see docs/objects.md).
-void ExpectRecognized(client::ObjectClient& c, int obj_id) {
-  const auto [right, total] = ViewsRecognized(c, obj_id);
-  EXPECT_GE(total, 4);
-  EXPECT_GE(right * 3, total * 2) << right << " of " << total << " views of object " << obj_id;
-  std::fprintf(stderr, "objects/%d: %d of %d held-out views recognized\n", obj_id, right, total);
+// The held-out views of obj_id are recognized. With two objects in the classifier chance
+// gives half the views and half the votes; the floors sit between chance and what was
+// measured (see the call sites).
+void ExpectRecognized(client::ObjectClient& c, int obj_id, double min_vote_share) {
+  const ViewStats s = ClassifyViews(c, obj_id, obj_id);
+  EXPECT_EQ(s.views, 6);
+  // Measured 2026-11-23: 6/6 for both objects. A third fewer would be 4/6, which chance
+  // reaches one time in three, so the floor is 5/6 (chance: 11 %); the vote share carries
+  // the rest.
+  EXPECT_GE(s.right_views, 5) << "objects/" << obj_id;
+  EXPECT_GE(s.VoteShare(), min_vote_share) << "objects/" << obj_id;
 }
 
 TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
@@ -51,13 +79,17 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     std::unique_ptr<server::GrpcServer> s = StartServer(dir);
     ASSERT_NE(s, nullptr);
     std::unique_ptr<client::ObjectClient> c = Connect(*s);
+    // Measured 2026-11-23 (18 training views each): object 1 127 voxels / 1216 centroids,
+    // object 2 433 / 1952. Floors: two thirds of the voxels, and at least 3 centroids per
+    // voxel (measured 9.6 and 4.5).
+    const std::map<int, uint64_t> min_voxels = {{kA, 85}, {kB, 290}};
     for (int id : {kA, kB}) {
       absl::StatusOr<v1::Object> o = Train(*c, id, MiniViews(id, 1));
       ASSERT_TRUE(o.ok()) << o.status();
       EXPECT_EQ(o->name(), absl::StrCat("objects/", id));
-      EXPECT_GT(o->frames(), 0u);
-      EXPECT_GT(o->voxels(), 10u);
-      EXPECT_GT(o->centroids(), o->voxels() - 1);
+      EXPECT_EQ(o->frames(), 18u);
+      EXPECT_GE(o->voxels(), min_voxels.at(id));
+      EXPECT_GE(o->centroids(), 3 * o->voxels());
       EXPECT_EQ(o->params().detector(), "ORB");
     }
     absl::StatusOr<std::vector<v1::Object>> all = c->ListAllObjects();
@@ -74,7 +106,7 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
 
     absl::StatusOr<v1::Object> full = c->GetObject("objects/1", v1::OBJECT_VIEW_FULL);
     ASSERT_TRUE(full.ok()) << full.status();
-    EXPECT_GT(full->rgb_voxels_size(), 100);
+    EXPECT_GE(full->rgb_voxels_size(), 90);  // measured 136 (2026-11-23); two thirds
     EXPECT_DOUBLE_EQ(full->rgb_resolution(), 0.01);
     EXPECT_FALSE(full->in_classifier());
 
@@ -108,8 +140,11 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     EXPECT_EQ(op->classifier().state(), v1::Classifier::READY);
     EXPECT_EQ(op->classifier().objects_size(), 2);
     EXPECT_EQ(op->classifier().classes(), 200u);
-    ExpectRecognized(*c, kA);
-    ExpectRecognized(*c, kB);
+    // Vote shares measured 2026-11-23 (deterministic for the seed; 24 trees x 24): object 1
+    // 0.942, object 2 0.590 (the cereal box's faces look alike to ORB). Floors keep two
+    // thirds of the margin over chance (0.5): 0.5 + 2/3 x (measured - 0.5).
+    ExpectRecognized(*c, kA, 0.79);
+    ExpectRecognized(*c, kB, 0.56);
     absl::StatusOr<v1::Operation> again = c->GetOperation(op->name());
     ASSERT_TRUE(again.ok());
     EXPECT_TRUE(again->done());
@@ -127,7 +162,7 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     ASSERT_TRUE(ready.ok());
     EXPECT_EQ(ready->state(), v1::Classifier::READY);
     EXPECT_EQ(ready->params().trees(), 24u);
-    ExpectRecognized(*c, kA);
+    ExpectRecognized(*c, kA, 0.79);  // the same classifier, reloaded: measured 0.942
 
     ASSERT_TRUE(c->DeleteObject("objects/1").ok());
     EXPECT_EQ(c->GetObject("objects/1").status().code(), absl::StatusCode::kNotFound);
@@ -147,7 +182,17 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     op = c->WaitDone(op->name(), nullptr, absl::Milliseconds(100));
     ASSERT_TRUE(op.ok()) << op.status();
     EXPECT_EQ(op->classifier().objects_size(), 1);
-    ExpectRecognized(*c, kB);
+    // One object: every vote is for it, so the vote share says nothing. Verification does:
+    // features of object 1 (deleted) must mostly fail it, features of object 2 pass.
+    const ViewStats own = ClassifyViews(*c, kB, kB);
+    const ViewStats foreign = ClassifyViews(*c, kA, kB);
+    // Measured 2026-11-23: 0.800 of object 2's features verified, 0.560 of object 1's (the
+    // ORB threshold, 77 bits, is loose). Without verification both would be 1 and the gap 0.
+    // Floors: two thirds of the measured gap (0.24); the foreign rate at most 4/3 of 0.560.
+    EXPECT_EQ(own.views, 6);
+    EXPECT_EQ(own.right_views, 6);
+    EXPECT_GE(own.VerifiedRate() - foreign.VerifiedRate(), 0.16);
+    EXPECT_LE(foreign.VerifiedRate(), 0.75);
   }
 }
 
@@ -166,10 +211,10 @@ TEST(ObjectServiceTest, TrainFromServerDatasetIsAnOperationWithProgress) {
   op = c->WaitDone(
       op->name(), [&](const v1::Operation&) { ++answers; }, absl::Milliseconds(50));
   ASSERT_TRUE(op.ok()) << op.status();
-  EXPECT_GE(answers, 1);
+  EXPECT_GE(answers, 1);  // timing-dependent (measured 5): at least the final answer
   EXPECT_EQ(op->object().name(), "objects/3");
   EXPECT_EQ(op->object().display_name(), "teabox");  // from objects.json
-  EXPECT_GT(op->object().voxels(), 10u);
+  EXPECT_GE(op->object().voxels(), 250u);            // measured 378 (2026-11-23); two thirds
   // The same object again: ALREADY_EXISTS at once; a missing dataset: NOT_FOUND.
   EXPECT_EQ(c->TrainObjectFromDataset(r).status().code(), absl::StatusCode::kAlreadyExists);
   r.set_obj_id(4);

@@ -37,13 +37,15 @@ TEST(MeanShiftTest, RecoversKnownFloatCentres) {
     ASSERT_EQ(c->centroids.rows(), 3u);
     for (size_t k = 0; k < 3; ++k) {
       EXPECT_EQ(c->cardinalities[k], 60u);
-      // The centroid is close to one of the true centres (noise of the mean ~ 1/sqrt(60)).
+      // The centroid is close to one of the true centres (noise of the mean ~ 1/sqrt(60) per
+      // dimension, ~0.52 in L2 over 16). Measured 2026-11-23 (seeded): 0.42-0.56 flat,
+      // 0.45-0.66 Gaussian; the ceiling is 4/3 of the largest (was 1.0).
       float best = INFINITY;
       for (const auto& t : centres) {
         best = std::min(best, DescriptorDistance(pts.layout(), c->centroids.Row(k),
                                                  DescriptorRef{.values = t.data()}));
       }
-      EXPECT_LT(best, 1.0f) << "kernel " << static_cast<int>(kernel);
+      EXPECT_LT(best, 0.87f) << "kernel " << static_cast<int>(kernel);
     }
   }
 }

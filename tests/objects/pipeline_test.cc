@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/str_format.h"
 #include "dataset/reader.h"
 #include "perception/objects/database_io.h"
 #include "perception/objects/evaluation.h"
@@ -42,8 +43,30 @@ const ObjectDatabase& OrbDatabase() {
   return *db;
 }
 
+// A floor that keeps two thirds of a measured rate's margin over chance: a regression that
+// loses a third of what the pipeline adds to guessing fails (and the floor is never below
+// 0.67 x measured).
+double FloorAboveChance(double measured, double chance) {
+  return chance + (measured - chance) * 2 / 3;
+}
+
+// What HeldOutViewsAreClassifiedToTheRightObject measured on 2026-11-23 (deterministic for
+// the seeds: the same values on every run and thread count). Per object: boxgreen (1),
+// cereal (2), teabox (3); the cereal box repeats its texture on opposite faces.
+struct Measured {
+  const char* detector;
+  double top1, verified;      // all held-out features
+  double object_verified[3];  // per object
+};
+constexpr Measured kMeasured[] = {
+    {"ORB", 0.687, 0.745, {0.847, 0.610, 0.731}},
+    {"SIFT", 0.732, 0.967, {0.986, 0.939, 0.968}},
+};
+
 TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
-  for (const char* detector : {"ORB", "SIFT"}) {
+  constexpr double kChance = 1.0 / 3;  // 3 objects
+  for (const Measured& m : kMeasured) {
+    const char* detector = m.detector;
     absl::StatusOr<ObjectDatabase> db =
         std::string(detector) == "ORB"
             ? absl::StatusOr<ObjectDatabase>(OrbDatabase())
@@ -57,16 +80,22 @@ TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
     std::printf("[ measured ] %s: feature top-1 %.3f, verified precision %.3f, views %d/%d\n",
                 detector, total.Top1Rate(), total.VerifiedPrecision(), total.views_correct,
                 total.views);
-    for (const ObjectAccuracy& a : *acc) {
+    ASSERT_EQ(acc->size(), 3u);
+    for (size_t i = 0; i < acc->size(); ++i) {
+      const ObjectAccuracy& a = (*acc)[i];
+      std::printf("[ measured ] %s object %d: views %d/%d, verified precision %.3f\n", detector,
+                  a.obj_id, a.views_correct, a.views, a.VerifiedPrecision());
       EXPECT_EQ(a.views, 6) << detector << " object " << a.obj_id;
       EXPECT_GT(a.features, 0);
-      // Per object, most held-out views are recognised (measured: 6/6 for every object).
+      // Per object, held-out views are recognised (measured: 6/6 for every object and both
+      // detectors; 5/6 keeps above a third's regression, chance reaches it 2 % of the time).
       EXPECT_GE(a.views_correct, 5) << detector << " object " << a.obj_id;
+      EXPECT_GE(a.VerifiedPrecision(), FloorAboveChance(m.object_verified[i], kChance))
+          << detector << " object " << a.obj_id << " (measured " << m.object_verified[i] << ")";
     }
-    // Measured (3 objects, chance = 1/3): feature top-1 ORB 0.687, SIFT 0.732; verified
-    // precision ORB 0.745, SIFT 0.967; views 18/18 for both.
-    EXPECT_GT(total.Top1Rate(), 0.55) << detector;
-    EXPECT_GT(total.VerifiedPrecision(), 0.6) << detector;
+    // Floors: ORB top-1 0.569, verified 0.608; SIFT top-1 0.599, verified 0.756.
+    EXPECT_GE(total.Top1Rate(), FloorAboveChance(m.top1, kChance)) << detector;
+    EXPECT_GE(total.VerifiedPrecision(), FloorAboveChance(m.verified, kChance)) << detector;
   }
 }
 
@@ -121,49 +150,90 @@ TEST(ObjectPipelineTest, ClassesMapBackToTheRightObjectAndVoxel) {
       chance += double(near) / db.stack().used(1);
     }
   }
-  ASSERT_GT(errors.size(), 50u);
+  ASSERT_GE(errors.size(), 415u);  // measured 623 verified predictions (2026-11-23); 2/3
   const double hits =
       std::count_if(errors.begin(), errors.end(), [](double e) { return e < 0.02; });
   const double rate = hits / errors.size();
   chance /= errors.size();
-  // Measured: 36% of verified predictions land within 2 cm of the true point (the cereal
-  // box repeats its texture on opposite faces, which takes most of the rest), against 3.7%
-  // for a random stacked voxel of the object.
+  // Measured 2026-11-23: 36.1 % of verified predictions land within 2 cm of the true point
+  // (the cereal box repeats its texture on opposite faces, which takes most of the rest),
+  // against 3.7 % for a random stacked voxel of the object: 9.8 x chance. Floors: two
+  // thirds of the margin over chance (0.253), and 6.5 x chance (two thirds of 9.8).
   std::printf("[ measured ] within 2 cm: %.3f, chance %.3f (%zu predictions)\n", rate, chance,
               errors.size());
-  EXPECT_GT(rate, 0.25);
-  EXPECT_GT(rate, 5 * chance) << "chance " << chance;
+  EXPECT_GE(rate, FloorAboveChance(0.361, chance));
+  EXPECT_GE(rate, 6.5 * chance) << "chance " << chance;
 }
 
-TEST(ObjectPipelineTest, CentroidMemoryGrowsSlowerThanRawDescriptors) {
-  // Paper Fig. 4: adding a second orbit (variant) adds descriptors, but mean shift keeps
-  // the stored centroids from growing as fast.
+TEST(ObjectPipelineTest, CentroidMemorySaturatesWhileRawDescriptorsGrowLinearly) {
+  // Paper Fig. 4: more evidence of an object (denser views, then a second orbit — a
+  // "variant") grows the raw descriptors linearly but the stored centroids less and less:
+  // mean shift folds the new evidence into existing clusters (higher cardinality) instead
+  // of adding memory. Evidence doubles at each step: 3, 6, 12 views of the first orbit
+  // (120, 60, 30 degrees apart), then both orbits (24 views).
+  //
+  // Measured 2026-11-23 (deterministic), centroid bytes / raw bytes at 3, 6, 12, 24 views:
+  //   boxgreen (1): 17064/26880, 27684/54560, 34668/110144, 43056/241056
+  //     centroids x1.62, x1.25, x1.24 per doubling; x2.52 overall while raw grows x8.97
+  //   teabox (3):   27432/34240, 49932/72000, 79200/140384, 113940/347104
+  //     centroids x1.82, x1.59, x1.44 per doubling; x4.15 overall while raw grows x10.1
+  // (The cereal box, object 2, is left out: its second orbit sees faces the first did not,
+  // 296 -> 468 voxels, and new surface rightly needs new centroids.)
+  // Bounds, lower is better, 4/3 of the measured values: centroid growth over raw growth
+  // <= 0.375 / 0.546 (proportional growth gives 1); the variant's doubling <= x1.32 /
+  // x1.59 (its excess over 1 times 4/3); and the last doubling grows less than the first.
+  struct Case {
+    int obj_id;
+    double max_growth_ratio, max_last_growth;
+  };
   absl::StatusOr<ObjectDatabaseParams> p = ResolveParams(Params("ORB"));
   ASSERT_TRUE(p.ok());
-  const std::string dir = MiniDataset() + "/train/000002";
-  auto one = TrainObject(dir, 2, "", *p, {.use_frame = [](int, int id) { return id < 12; }});
-  auto two = TrainObject(dir, 2, "", *p, {});
-  ASSERT_TRUE(one.ok() && two.ok());
-  const ObjectTrainingStats &a = one->model.stats, &b = two->model.stats;
-  EXPECT_EQ(b.frames, 2 * a.frames);
-  const double raw_growth = double(b.raw_descriptor_bytes) / a.raw_descriptor_bytes;
-  const double centroid_growth = double(b.centroid_bytes) / a.centroid_bytes;
-  EXPECT_GT(raw_growth, 1.6);
-  // Measured on mini (12 views per orbit, 30 degrees apart): centroids take 0.55 of the raw
-  // bytes after one variant and 0.54 after two; they never grow faster than the evidence.
-  std::printf("[ measured ] centroid/raw bytes: %.3f (1 variant), %.3f (2 variants)\n",
-              double(a.centroid_bytes) / a.raw_descriptor_bytes,
-              double(b.centroid_bytes) / b.raw_descriptor_bytes);
-  EXPECT_LE(centroid_growth, raw_growth);
-  EXPECT_LT(double(a.centroid_bytes) / a.raw_descriptor_bytes, 0.7);
-  EXPECT_LT(double(b.centroid_bytes) / b.raw_descriptor_bytes, 0.7);
+  for (const Case& c : {Case{1, 0.375, 1.32}, Case{3, 0.546, 1.59}}) {
+    const std::string dir = absl::StrFormat("%s/train/%06d", MiniDataset(), c.obj_id);
+    std::vector<ObjectTrainingStats> steps;
+    constexpr std::pair<int, int> kViews[] = {{12, 4}, {12, 2}, {12, 1}, {24, 1}};  // id <, id %
+    for (const std::pair<int, int>& v : kViews) {
+      auto o = TrainObject(dir, c.obj_id, "", *p, {.use_frame = [v](int, int id) {
+                             return id < v.first && id % v.second == 0;
+                           }});
+      ASSERT_TRUE(o.ok()) << o.status();
+      steps.push_back(o->model.stats);
+    }
+    std::printf("[ measured ] object %d centroid/raw bytes:", c.obj_id);
+    for (const ObjectTrainingStats& s : steps) {
+      std::printf(" %lld/%lld", static_cast<long long>(s.centroid_bytes),
+                  static_cast<long long>(s.raw_descriptor_bytes));
+    }
+    std::printf("\n");
+    for (size_t i = 1; i < steps.size(); ++i) {
+      EXPECT_EQ(steps[i].frames, 2 * steps[i - 1].frames);
+      // Raw descriptors grow with the evidence: each doubling of views doubles them
+      // (measured x2.02-x2.47).
+      const double raw = double(steps[i].raw_descriptor_bytes) / steps[i - 1].raw_descriptor_bytes;
+      EXPECT_GE(raw, 1.8) << "object " << c.obj_id << " step " << i;
+      // Cardinality grows: each step stores fewer centroid bytes per raw byte.
+      EXPECT_LT(double(steps[i].centroid_bytes) / steps[i].raw_descriptor_bytes,
+                double(steps[i - 1].centroid_bytes) / steps[i - 1].raw_descriptor_bytes)
+          << "object " << c.obj_id << " step " << i;
+    }
+    auto growth = [&](size_t from, size_t to, auto field) {
+      return double(steps[to].*field) / steps[from].*field;
+    };
+    const double raw_growth = growth(0, 3, &ObjectTrainingStats::raw_descriptor_bytes);
+    const double centroid_growth = growth(0, 3, &ObjectTrainingStats::centroid_bytes);
+    EXPECT_LE(centroid_growth / raw_growth, c.max_growth_ratio) << "object " << c.obj_id;
+    const double first = growth(0, 1, &ObjectTrainingStats::centroid_bytes);
+    const double last = growth(2, 3, &ObjectTrainingStats::centroid_bytes);
+    EXPECT_LE(last, c.max_last_growth) << "object " << c.obj_id;
+    EXPECT_LT(last, first) << "object " << c.obj_id;
+  }
 }
 
 TEST(ObjectPipelineTest, RgbVolumeHoldsTheObject) {
   const ObjectModel& o = OrbDatabase().objects().at(0);  // boxgreen: a textured 5 cm cube
   auto map = DeserializeMap<RGBWeightedVoxel>(o.rgb_volume, {});
   ASSERT_TRUE(map.ok()) << map.status();
-  ASSERT_GT((*map)->size(), 50u);
+  ASSERT_GE((*map)->size(), 90u);  // measured 136 voxels (2026-11-23); two thirds
   cv::Scalar mean(0, 0, 0);
   double weight = 0;
   (*map)->ForEach([&](const VoxelKey& k, const RGBWeightedVoxel& v) {
@@ -172,13 +242,15 @@ TEST(ObjectPipelineTest, RgbVolumeHoldsTheObject) {
     mean += cv::Scalar(v.b, v.g, v.r);
     weight += v.weight;
   });
-  // Its colour is the colour of the object's pixels (first training view).
+  // Its colour is the colour of the object's pixels (first training view). Measured
+  // 2026-11-23: the volume is 12-14 levels darker per channel (it averages every training
+  // view, lit from other sides); 4/3 of the largest is 19.
   absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(MiniDataset() + "/train/000001");
   ASSERT_TRUE(seq.ok());
   auto img = dataset::LoadFrameImages(seq->frames[0], true);
   ASSERT_TRUE(img.ok());
   const cv::Scalar pixels = cv::mean(img->rgb, img->masks[0]);
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c] / weight, pixels[c], 30) << "channel " << c;
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c] / weight, pixels[c], 19) << "channel " << c;
 }
 
 TEST(ObjectPipelineTest, DatabaseRoundTripsThroughSqlite) {

@@ -52,8 +52,10 @@ TEST(RandomForestTest, ClassifiesManyClassesAboveNinetyPercent) {
   }
   std::printf("[ measured ] forest accuracy %.3f on %zu samples\n", double(correct) / test.size(),
               test.size());
-  // The floor leaves margin for other seeds (measured value printed above).
-  EXPECT_GT(correct, 0.9 * test.size());
+  // Measured 2026-11-23: 0.998 (3 errors in 1500; deterministic for the seeds). Two thirds
+  // of that (or of the margin over chance, 1/300) would be 0.67, which a forest with
+  // broken splits can still reach; the floor allows ten times the measured error rate.
+  EXPECT_GE(correct, 0.98 * test.size());
 }
 
 TEST(RandomForestTest, SameSeedSameForestAndSerializationRoundTrips) {

@@ -2,8 +2,10 @@
 // missing depth, empty mask, wrong image types. Nothing crashes.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "perception/objects/object_trainer.h"
 #include "perception/objects/training.h"
@@ -98,11 +100,15 @@ TEST(TrainerErrorsTest, MissingDepthEmptyMaskAndWrongTypesAreRejected) {
 }
 
 TEST(TrainerErrorsTest, EveryDetectorFusesAValidFrame) {
+  // Descriptors fused from the one textured plane, measured 2026-11-23 (deterministic):
+  // ORB 698, SIFT 680, AKAZE 523, BRISK 1000 (its max_features). Floors: two thirds.
+  const std::map<std::string, int> min_descriptors = {
+      {"ORB", 465}, {"SIFT", 453}, {"AKAZE", 348}, {"BRISK", 666}};
   for (const char* name : {"ORB", "SIFT", "AKAZE", "BRISK"}) {
     std::unique_ptr<ObjectTrainer> t = Trainer(name);
     absl::StatusOr<FrameContribution> c = t->AddFrame(PlaneFrame());
     ASSERT_TRUE(c.ok()) << name << ": " << c.status();
-    EXPECT_GT(c->descriptors, 20) << name;
+    EXPECT_GE(c->descriptors, min_descriptors.at(name)) << name;
     // The plane is 0.6 m in front of the camera: every voxel is at z ~ 0.6 m (model frame
     // = camera frame here).
     t->descriptor_volume().ForEach([&](const VoxelKey& k, const DescriptorVoxel& v) {

@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
+
 #include "perception/frame_integrator.h"
 #include "perception/image_codec.h"
 #include "perception/rgbd_frame.h"
@@ -37,7 +40,14 @@ TEST(ImageCodecTest, ColorRoundTripsLosslessAndJpegApproximately) {
   }
   auto jpeg = DecodeColor(ColorCodec::kJpeg, *EncodeColor(ColorCodec::kJpeg, c), 8, 4);
   ASSERT_TRUE(jpeg.ok());
-  EXPECT_NEAR(jpeg->rgb[0], 200, 12);
+  ASSERT_EQ(jpeg->rgb.size(), c.rgb.size());
+  int max_error = 0;  // over every channel of every pixel
+  for (size_t i = 0; i < c.rgb.size(); ++i) {
+    max_error = std::max(max_error, std::abs(int(jpeg->rgb[i]) - int(c.rgb[i])));
+  }
+  // Measured 2026-11-23: at most 1 level off on this 8 x 4 two-colour image (was: the first
+  // value within 12). 4 allows a coarser quantisation, not a wrong colour.
+  EXPECT_LE(max_error, 4);
 }
 
 TEST(ImageCodecTest, ZstdClaimingTheWrongSizeIsRejectedBeforeDecoding) {

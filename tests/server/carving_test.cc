@@ -68,7 +68,7 @@ TEST_F(CarvingTest, CarvingFreesCellsBetweenCameraAndWallThatShowNoFloor) {
       EXPECT_EQ(CellAt(carved, x, y), 0) << "rays crossed " << x << ", " << y;
     }
   }
-  EXPECT_GT(near_cells, 50);
+  EXPECT_GE(near_cells, 110);  // 22 x 5 cells checked (a count of the loop, not a measure)
   for (const v1::OccupancyGrid* grid : {&plain, &carved}) {
     EXPECT_EQ(CellAt(*grid, 2.2, 0.0), 0) << "seen floor is free either way";
     EXPECT_EQ(CellAt(*grid, 3.02, 0.0), 100) << "the wall is occupied either way";
@@ -82,7 +82,7 @@ TEST_F(CarvingTest, CarvingFreesCellsBetweenCameraAndWallThatShowNoFloor) {
   auto info = client_->GetMap("maps/carved");
   ASSERT_TRUE(info.ok());
   EXPECT_TRUE(info->options().carve_free_space());
-  EXPECT_GT(info->stats().free_voxels(), 1000u);
+  EXPECT_GE(info->stats().free_voxels(), 1650u);  // measured 2466 (2026-11-23); two thirds
   auto plain_info = client_->GetMap("maps/plain");
   ASSERT_TRUE(plain_info.ok());
   EXPECT_EQ(plain_info->stats().free_voxels(), 0u);

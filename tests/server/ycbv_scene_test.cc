@@ -133,8 +133,9 @@ TEST(YcbvSceneTest, TableIsAFlatPlaneAboveTheFloorAndObjectsStandOnIt) {
       floor_w.push_back(v.weight());
     }
   }
-  ASSERT_GT(table.size(), 1000u);
-  ASSERT_GT(floor.size(), 500u);
+  // Measured 2026-11-23: 2470 table voxels, 1903 floor voxels; floors at two thirds.
+  ASSERT_GE(table.size(), 1645u);
+  ASSERT_GE(floor.size(), 1265u);
   const Plane table_plane = FitPlane(table, table_w), floor_plane = FitPlane(floor, floor_w);
   const double flatness = MedianAbsResidual(table_plane, table, table_w);
   const double angle_deg =
@@ -148,7 +149,10 @@ TEST(YcbvSceneTest, TableIsAFlatPlaneAboveTheFloorAndObjectsStandOnIt) {
       "table: %zu voxels, median |residual| %.4f m; floor %zu voxels; angle %.2f deg; "
       "table height %.3f m\n",
       table.size(), flatness, floor.size(), angle_deg, table_height);
-  EXPECT_LE(flatness, 0.012);  // measured 9.3 mm
+  // Measured 2026-11-23: flatness 9.3 mm (ceiling 4/3: 12.4 mm), angle 2.87 degrees (the
+  // table is not quite parallel to the floor in the data; ceiling kept at 3.0), table
+  // height 0.717 m (a fact of the scene: 0.6-0.9 m).
+  EXPECT_LE(flatness, 0.012);
   EXPECT_LE(angle_deg, 3.0);
   EXPECT_GT(table_height, 0.6);
   EXPECT_LT(table_height, 0.9);
@@ -163,10 +167,13 @@ TEST(YcbvSceneTest, TableIsAFlatPlaneAboveTheFloorAndObjectsStandOnIt) {
     const double top_above = top - (table_plane.a * o.x() + table_plane.b * o.y() + table_plane.c);
     std::printf("object centre %.3f m above the table, height map %.3f m above\n", above,
                 top_above);
+    // Measured 2026-11-23: centres 0.034-0.044 m above the table (a physical range for
+    // these objects, kept), height-map tops 0.077-0.084 m: bounds at two thirds of the
+    // lowest and 4/3 of the highest.
     EXPECT_GT(above, 0.015);
     EXPECT_LT(above, 0.06);
-    EXPECT_GT(top_above, 0.02);  // NaN (nothing seen) fails too
-    EXPECT_LT(top_above, 0.15);
+    EXPECT_GT(top_above, 0.051);  // NaN (nothing seen) fails too
+    EXPECT_LT(top_above, 0.112);
   }
 }
 

@@ -61,7 +61,7 @@ TEST_F(GeneratorTest, SameSeedGivesByteIdenticalOutputWhateverTheThreadCount) {
   std::sort(a.begin(), a.end());
   std::sort(b.begin(), b.end());
   ASSERT_EQ(a, b);
-  ASSERT_GT(a.size(), 100u);
+  ASSERT_GE(a.size(), 150u);  // measured 227 files (2026-11-23); two thirds
   for (const std::string& f : a) {
     ASSERT_EQ(Slurp(*root_ / "t2" / f), Slurp(*root_ / "t1" / f)) << f;
   }
@@ -149,12 +149,13 @@ TEST_F(GeneratorTest, ProjectedModelPointsFallInsideVisibleMasks) {
           inside += mask.at<uint8_t>(v, u) != 0;
         }
         ASSERT_GT(total, 0);
+        // Measured 2026-11-23: every projected point inside the dilated mask (40 of 40).
         EXPECT_GE(inside, 0.97 * total) << scene << " frame " << f.id << " obj " << a.obj_id;
         ++checked;
       }
     }
   }
-  EXPECT_GT(checked, 10);
+  EXPECT_GE(checked, 27);  // measured 40 unoccluded objects (2026-11-23); two thirds
 }
 
 TEST_F(GeneratorTest, TumFilesMatchBopPoses) {

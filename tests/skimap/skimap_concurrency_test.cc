@@ -76,6 +76,9 @@ TEST(SkiMapConcurrencyTest, ReadersSeeWholeColumnsWhileOneWriterWrites) {
   }
   stop.store(true);
   for (std::thread& t : readers) t.join();
+  // Timing-dependent: 830-3573 reads in five release runs on 2 shared cores (2026-11-23),
+  // far fewer under TSan, which runs this test too. The floor only proves that readers ran
+  // while the writer wrote; the per-read checks above are what this test is about.
   EXPECT_GT(reads.load(), 3);
   EXPECT_EQ(map.size(), floor.size());
 }

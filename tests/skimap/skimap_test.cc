@@ -288,13 +288,16 @@ TEST(SkiMapTest, DeintegrationRestoresTheEmptyMapAndFreesMemory) {
     map.Integrate(batch);
   }
   const size_t full_bytes = map.MemoryUsage();
-  EXPECT_GT(full_bytes, empty_bytes + 100000);
+  // Measured 2026-11-23: 936 B empty, 11 842 680 B full (200 000 random points); the floor
+  // is two thirds of the full map.
+  EXPECT_GT(full_bytes, empty_bytes + 7900000);
   for (auto& batch : frames) map.Deintegrate(batch);
   EXPECT_TRUE(map.empty());
   EXPECT_EQ(map.MemoryUsage(), empty_bytes);
   EXPECT_FALSE(map.Bounds().has_value());
   // Memory is reused: a second fill costs no more than the first.
   for (auto& batch : frames) map.Integrate(batch);
+  // (Measured equal to the first fill; 5 % leaves room for random tower heights.)
   EXPECT_LE(map.MemoryUsage(), full_bytes + full_bytes / 20);
 }
 
@@ -390,10 +393,10 @@ TEST(SkiMapTest, CompactKeepsContentAndQueries) {
   map.ForEach([&](const VoxelKey& k, const MultiLabelVoxel& v) { after.emplace_back(k, v); });
   EXPECT_EQ(before, after);
   EXPECT_EQ(map.size(), before.size());
-  EXPECT_LE(map.MemoryUsage(), bytes_before);
+  EXPECT_LE(map.MemoryUsage(), bytes_before);  // measured 795 664 -> 777 480 B (2026-11-23)
   size_t hits = 0;
   map.RadiusSearch({0, 0, 0}, 0.5, [&](const VoxelKey&, const MultiLabelVoxel&) { ++hits; });
-  EXPECT_GT(hits, 0u);
+  EXPECT_GE(hits, 590u);  // measured 887 (2026-11-23, seeded); two thirds
   // The map stays writable: everything can still be removed.
   for (auto& [k, v] : after) map.DeintegrateKey(k, v);
   EXPECT_TRUE(map.empty());

@@ -169,7 +169,8 @@ TEST(SkipListCoreTest, ShortListsStayOneLevelHigh) {
     // A list of n nodes is at most 1 + log2(n) levels high.
     EXPECT_LE(core.height(), 1 + static_cast<int>(std::log2(core.size())));
   }
-  EXPECT_GE(core.height(), 6);  // and long lists still grow levels
+  // And long lists still grow levels: measured 11 for 4096 nodes (2026-11-23); two thirds.
+  EXPECT_GE(core.height(), 8);
   core.Clear(arena);
 }
 
