@@ -81,15 +81,22 @@ class OctoMapAdapter {
     }
     return hits_.size();
   }
+  // Voxels with keys in the box's key range (as SkiMap's and OpenVDB's box queries count).
   size_t BoxCount(const PointF& lo, const PointF& hi) const {
+    const octomap::OcTreeKey kmin = tree_.coordToKey(octomap::point3d(lo.x, lo.y, lo.z)),
+                             kmax = tree_.coordToKey(octomap::point3d(hi.x, hi.y, hi.z));
     size_t n = 0;
-    for (auto it = tree_.begin_leafs_bbx(octomap::point3d(lo.x, lo.y, lo.z),
-                                         octomap::point3d(hi.x, hi.y, hi.z)),
-              end = tree_.end_leafs_bbx();
-         it != end; ++it) {
+    for (auto it = tree_.begin_leafs_bbx(kmin, kmax), end = tree_.end_leafs_bbx(); it != end;
+         ++it) {
+      if (it.getDepth() == tree_.getTreeDepth()) {
+        ++n;  // a full-depth leaf from the bbx iterator lies in the key range
+        continue;
+      }
       ForEachVoxel(it, [&](const octomap::point3d& p) {
-        n += p.x() >= lo.x && p.x() <= hi.x && p.y() >= lo.y && p.y() <= hi.y && p.z() >= lo.z &&
-             p.z() <= hi.z;
+        const octomap::OcTreeKey k = tree_.coordToKey(p);
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) inside = inside && k[a] >= kmin[a] && k[a] <= kmax[a];
+        n += inside;
       });
     }
     return n;
