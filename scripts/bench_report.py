@@ -231,8 +231,8 @@ class Report:
                            f" | {fmt(lib['SkiMap'])} | {fmt(lib['OctoMap'])} | {fmt_ratio(r)} |")
                 self.floor(f"memory {label} {res / 10:g} cm: OctoMap / SkiMap bytes per voxel",
                            r, 1)
-        out += ["", "PCL octree and nanoflann hold points (voxel centres on the surface maps), "
-                "and their figures include the point array they index.", ""]
+        out += ["", "PCL octree and nanoflann hold points (the distinct voxel centres of each "
+                "workload), and their figures include the point array they index.", ""]
         return out
 
     def floor_table(self):
