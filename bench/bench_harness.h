@@ -3,22 +3,32 @@
 //
 //   struct Adapter {
 //     explicit Adapter(double resolution_m);
-//     void Insert(const Cloud& world_points);          // integrate a frame / add points
-//     size_t RadiusCount(const PointF& c, double r) const;   // voxels (points) within r
-//     size_t Voxels() const;                            // voxels (points) stored
-//     size_t LibBytes() const;                          // the library's own estimate, 0 if none
-//     void ReleaseScratch();                            // free reusable buffers (for memory)
-//     void Reset();  // optional: empty the structure but keep reusable scratch buffers
-//     // optional, for maps (detected with requires-expressions):
+//     void Insert(const Cloud& world_points);  // whole pipeline: points -> structure
+//     // Collects the voxels (points) whose centre is within r of c into a reused result
+//     // vector, as PCL and nanoflann do, and returns how many.
+//     size_t RadiusSearch(const PointF& c, double r) const;
+//     size_t Voxels() const;                   // distinct voxels (points) stored
+//     size_t LibBytes() const;                 // the library's own estimate, 0 if none
+//     void ReleaseScratch();                   // free reusable buffers (for memory)
+//     // optional (detected with requires-expressions):
+//     void Reset();  // empty the structure but keep reusable scratch buffers
+//     // structure only: one update per distinct voxel of a finalized batch, adding its weight
+//     void InsertMerged(const VoxelBatch<WeightVoxel>& batch);
+//     bool HasVoxel(const VoxelKey& key) const;  // REQUIRED by the insert benchmarks
 //     size_t BoxCount(const PointF& lo, const PointF& hi) const;
 //     double VisitAll() const;  size_t HeightMap() const;  size_t OccupancyGrid() const;
 //   };
 //
 // Run*<Adapter> are the loops; bench_register.h registers them as BM_<Operation>_Name/<arg>
 // benchmarks (insert args are the resolution in mm; radius args the radius in cm; box
-// args the box side in cm). Structures
-// used by queries are built once per process on first use and cached, together with the
-// heap bytes their build allocated (mallinfo2 difference; see HeapBytesInUse()).
+// args the box side in cm). Structures used by queries are built once per process on first
+// use and cached, together with the heap bytes their build allocated (HeapBytesInUse()).
+//
+// Every answer is checked, and a structure that disagrees fails its benchmark with
+// SkipWithError (the report then refuses to write the docs): after an insert benchmark the
+// structure must hold exactly the voxel set of the frames it was given (same count, every
+// key present); every radius query must return exactly ExactRadiusHits (bench_workloads.h),
+// for all 1 024 queries once before timing and for each timed query.
 //
 // Thread safety: Google Benchmark runs these on its main thread only.
 #ifndef SKIMAP_BENCH_BENCH_HARNESS_H_
@@ -26,34 +36,21 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bench/bench_data.h"
+#include "bench/bench_workloads.h"
 
 namespace skimap::bench {
 
-// The query workloads and their fixed resolutions.
-enum class Workload { kUniform, kSurface, kBig };
-inline constexpr int kUniformResMm = 10;  // 1 M uniform points, 1 cm voxels
-inline constexpr int kSurfaceResMm = 10;  // room sweep surface map, 1 cm (active sphere)
-inline constexpr int kBigResMm = 10;      // >= 10 M voxel warehouse map
-inline constexpr size_t kQueryCount = 1024;
-
-// Distinct voxel centres of the room sweep at `res_mm` (what a point index stores to
-// answer the same queries as a voxel map).
-const Cloud& SurfaceVoxelCenters(int res_mm);
-// Query centres drawn from the workload's points (fixed seeds).
-const Cloud& QueryCentersFor(Workload w);
-// The clouds a map is built from for a workload (frames, or one big cloud).
-std::vector<const Cloud*> WorkloadClouds(Workload w);
-const char* WorkloadName(Workload w);
-// {RoomFrame()}: the room frame as a one-frame sequence.
-const std::vector<Cloud>& RoomFrameList();
-
-// Point indexes (kd-tree, PCL octree) are built from voxel centres on surface workloads.
+// Point indexes (kd-tree, PCL octree) are built from voxel centres, so that they answer
+// exactly the question the voxel maps answer.
 template <class S>
 concept PointIndex = S::kStoresPoints;
 
@@ -71,7 +68,7 @@ const Built<S>& Cached(Workload w, int res_mm) {
   if (it != cache.end()) return it->second;
   std::vector<const Cloud*> clouds = WorkloadClouds(w);
   if constexpr (PointIndex<S>) {
-    if (w != Workload::kUniform) clouds = {&SurfaceVoxelCenters(res_mm)};
+    if (w != Workload::kBig) clouds = {&VoxelCenters(w, res_mm)};
   }
   Built<S> b;
   const size_t before = HeapBytesInUse();
@@ -82,56 +79,115 @@ const Built<S>& Cached(Workload w, int res_mm) {
   return cache.emplace(std::pair{w, res_mm}, std::move(b)).first->second;
 }
 
+// Fails the benchmark loudly (SkipWithError + stderr) and returns false.
+bool Fail(benchmark::State& state, const std::string& what);
+
+// Checks that s holds exactly the voxels `want` (count and membership).
+template <class S>
+bool CheckVoxelSet(benchmark::State& state, const S& s, const std::vector<VoxelKey>& want) {
+  size_t missing = 0;
+  for (const VoxelKey& k : want) missing += !s.HasVoxel(k);
+  if (missing == 0 && s.Voxels() == want.size()) return true;
+  return Fail(state, "voxel set differs from the frames': " + std::to_string(s.Voxels()) +
+                         " voxels, want " + std::to_string(want.size()) + ", " +
+                         std::to_string(missing) + " missing");
+}
+
+std::vector<VoxelKey> KeysOf(const VoxelBatch<WeightVoxel>& batch);
+
 // Inserts one frame per iteration (cycling through `frames`), into an empty structure
 // (steady = false; the reset is not timed) or into one that already holds every frame.
+// merged = false: the whole pipeline (points -> structure, S::Insert); merged = true: the
+// structure only (the frame's finalized MergedBatch -> structure, S::InsertMerged; the
+// merge is done before timing). Then checks the voxel set.
 template <class S>
-void RunInsert(benchmark::State& state, const std::vector<Cloud>& frames, bool steady) {
+void RunInsert(benchmark::State& state, const std::vector<Cloud>& frames, bool steady,
+               bool merged) {
   if (frames.empty()) {
     state.SkipWithError(("no frames: " + YcbvError()).c_str());
     return;
   }
-  const double res = state.range(0) * 1e-3;
+  const int res_mm = static_cast<int>(state.range(0));
+  std::vector<const VoxelBatch<WeightVoxel>*> batches;
+  size_t distinct = 0;
+  for (const Cloud& f : frames) {
+    batches.push_back(&MergedBatch(f, res_mm));
+    distinct += batches.back()->size();
+  }
   std::unique_ptr<S> s;
+  auto insert = [&](size_t f) {
+    if constexpr (requires { s->InsertMerged(*batches[f]); }) {
+      if (merged) return s->InsertMerged(*batches[f]);
+    }
+    s->Insert(frames[f]);
+  };
   auto reset = [&] {
     if constexpr (requires { s->Reset(); }) {
       if (s != nullptr) {
         s->Reset();  // keeps the structure's reusable scratch, as a live map worker would
       } else {
-        s = std::make_unique<S>(res);
+        s = std::make_unique<S>(res_mm * 1e-3);
       }
     } else {
       s.reset();
-      s = std::make_unique<S>(res);
+      s = std::make_unique<S>(res_mm * 1e-3);
     }
     if (steady) {
-      for (const Cloud& f : frames) s->Insert(f);
+      for (size_t f = 0; f < frames.size(); ++f) insert(f);
     }
   };
   reset();
   size_t i = 0, points = 0;
   for (auto _ : state) {
-    const Cloud& f = frames[i++ % frames.size()];
+    const size_t f = i++ % frames.size();
     if (!steady) {
       state.PauseTiming();
       reset();
       state.ResumeTiming();
     }
-    s->Insert(f);
-    points += f.size();
+    insert(f);
+    points += frames[f].size();
   }
+  const double iters = static_cast<double>(state.iterations());
   state.SetItemsProcessed(static_cast<int64_t>(points));
-  state.counters["points"] = static_cast<double>(points) / static_cast<double>(state.iterations());
+  state.counters["points"] = static_cast<double>(points) / iters;
+  // Distinct voxels per frame (mean over the frames): the merged rows' unit of work.
+  state.counters["distinct"] = static_cast<double>(distinct) / static_cast<double>(frames.size());
   state.counters["voxels"] = static_cast<double>(s->Voxels());
+  CheckVoxelSet(state, *s,
+                steady ? UnionKeys(frames, res_mm) : KeysOf(*batches[(i - 1) % frames.size()]));
 }
 
+// Checks s against ExactRadiusHits for every query (once per structure, workload and
+// radius), then times the queries in turn, checking each answer too.
 template <class S>
 void RunRadius(benchmark::State& state, Workload w) {
   const S& s = *Cached<S>(w, w == Workload::kUniform ? kUniformResMm : kSurfaceResMm).s;
   const Cloud& queries = QueryCentersFor(w);
-  const double r = state.range(0) * 1e-2;
-  size_t i = 0, hits = 0;
-  for (auto _ : state) hits += s.RadiusCount(queries[i++ % queries.size()], r);
+  const int r_cm = static_cast<int>(state.range(0));
+  const double r = r_cm * 1e-2;
+  const std::vector<uint32_t>& want = ExactRadiusHits(w, r_cm);
+  static std::set<std::pair<Workload, int>> verified;
+  if (verified.insert({w, r_cm}).second) {
+    for (size_t q = 0; q < queries.size(); ++q) {
+      const size_t got = s.RadiusSearch(queries[q], r);
+      if (got != want[q]) {
+        verified.erase({w, r_cm});
+        Fail(state, "query " + std::to_string(q) + ": " + std::to_string(got) + " hits, want " +
+                        std::to_string(want[q]));
+        return;
+      }
+    }
+  }
+  size_t i = 0, hits = 0, wrong = 0;
+  for (auto _ : state) {
+    const size_t q = i++ % queries.size();
+    const size_t n = s.RadiusSearch(queries[q], r);
+    hits += n;
+    wrong += n != want[q];
+  }
   state.counters["hits"] = static_cast<double>(hits) / static_cast<double>(state.iterations());
+  if (wrong > 0) Fail(state, std::to_string(wrong) + " timed queries with a wrong hit count");
 }
 
 template <class S>

@@ -1,10 +1,11 @@
 // Registration of the shared benchmark loops (bench_harness.h) for one structure adapter:
 //
-//   RegisterInserts<MyAdapter>("Mine");     // BM_InsertRoom_Mine/10, BM_InsertYcbvSteady_Mine/50,
-//   ... RegisterRadius<MyAdapter>("Mine");      // BM_RadiusUniform_Mine/5,
-//   BM_RadiusSurface_Mine/100, ... RegisterMapQueries<MyAdapter>("Mine");  // box, visit-all,
-//   height map, occupancy grid RegisterMemory<MyAdapter>("Mine");      // BM_MemoryBig_Mine/10,
-//   BM_MemorySurface_Mine/20, ...
+//   RegisterInserts<MyAdapter>("Mine");        // BM_InsertRoom_Mine/10,
+//   BM_InsertYcbvSteady_Mine/50 RegisterMergedInserts<MyAdapter>("Mine");  //
+//   BM_InsertRoomMerged_Mine/10, ... RegisterRadius<MyAdapter>("Mine");         //
+//   BM_RadiusUniform_Mine/5, BM_RadiusSurface_Mine/100 RegisterMapQueries<MyAdapter>("Mine"); //
+//   box, visit-all, height map, occupancy grid RegisterMemory<MyAdapter>("Mine");         //
+//   BM_MemoryBig_Mine/10, BM_MemorySurface_Mine/20
 //
 // Call them from a static initializer in the adapter's .cc file, before main runs.
 #ifndef SKIMAP_BENCH_BENCH_REGISTER_H_
@@ -17,21 +18,38 @@
 
 namespace skimap::bench {
 
-// Room frame at 1, 2, 5 cm and the real frames, empty and steady state.
 template <class S>
-void RegisterInserts(const std::string& name, std::vector<int64_t> res_mm = {10, 20, 50}) {
-  auto reg = [&](const std::string& op, bool steady, bool real) {
+void RegisterInsertOps(const std::string& name, const std::vector<int64_t>& res_mm, bool merged) {
+  auto reg = [&](const std::string& wl, bool steady, bool real) {
+    const std::string op = "Insert" + wl + (merged ? "Merged" : "") + (steady ? "Steady" : "");
     auto* b = benchmark::RegisterBenchmark(
-        ("BM_" + op + "_" + name).c_str(), [steady, real](benchmark::State& st) {
-          RunInsert<S>(st, real ? YcbvFrames() : RoomFrameList(), steady);
+        ("BM_" + op + "_" + name).c_str(), [steady, real, merged](benchmark::State& st) {
+          RunInsert<S>(st, real ? YcbvFrames() : RoomFrameList(), steady, merged);
         });
     for (int64_t r : res_mm) b->Arg(r);
     b->Unit(benchmark::kMillisecond)->UseRealTime();
   };
-  reg("InsertRoom", false, false);
-  reg("InsertRoomSteady", true, false);
-  reg("InsertYcbv", false, true);
-  reg("InsertYcbvSteady", true, true);
+  reg("Room", false, false);
+  reg("Room", true, false);
+  reg("Ycbv", false, true);
+  reg("Ycbv", true, true);
+}
+
+// Room frame at 1, 2, 5 cm and the real frames, empty and steady state. Whole pipeline
+// (points -> structure, S::Insert): BM_InsertRoom_<name>, BM_InsertYcbvSteady_<name>, ...
+template <class S>
+void RegisterInserts(const std::string& name, std::vector<int64_t> res_mm = {10, 20, 50}) {
+  RegisterInsertOps<S>(name, res_mm, /*merged=*/false);
+}
+
+// The same frames as finalized merged batches (structure only, S::InsertMerged):
+// BM_InsertRoomMerged_<name>, BM_InsertYcbvMergedSteady_<name>, ...
+template <class S>
+void RegisterMergedInserts(const std::string& name, std::vector<int64_t> res_mm = {10, 20, 50}) {
+  static_assert(
+      requires(S & s, const VoxelBatch<WeightVoxel>& b) { s.InsertMerged(b); },
+      "RegisterMergedInserts needs S::InsertMerged(const VoxelBatch<WeightVoxel>&)");
+  RegisterInsertOps<S>(name, res_mm, /*merged=*/true);
 }
 
 template <class S>

@@ -1,7 +1,8 @@
-// nanoflann (libnanoflann-dev 1.4) side of the benchmarks: a static kd-tree over the same
-// points (raw points for the uniform workload, voxel centres for surface maps), queried
-// with radiusSearch (unsorted). A kd-tree cannot be updated, so a live map pays a rebuild
-// per frame: BM_RadiusSurfaceRebuild_Nanoflann times rebuild + one query.
+// nanoflann (libnanoflann-dev 1.4) side of the benchmarks: a static kd-tree over the
+// distinct voxel centres of each workload (so that it answers exactly what the voxel maps
+// answer), queried with radiusSearch (unsorted, hits into a reused vector). A kd-tree cannot be
+// updated, so a live map pays a rebuild per frame: BM_RadiusSurfaceRebuild_Nanoflann times rebuild
+// + one query.
 #include <memory>
 #include <nanoflann.hpp>
 #include <utility>
@@ -26,7 +27,7 @@ class NanoflannAdapter {
   void Rebuild() {
     tree_ = std::make_unique<Tree>(3, dataset_, nanoflann::KDTreeSingleIndexAdaptorParams(10));
   }
-  size_t RadiusCount(const PointF& c, double r) const {
+  size_t RadiusSearch(const PointF& c, double r) const {
     const float q[3] = {c.x, c.y, c.z};
     nanoflann::SearchParams params;
     params.sorted = false;
@@ -61,13 +62,13 @@ class NanoflannAdapter {
 
 void RunRebuildAndQuery(benchmark::State& state) {
   NanoflannAdapter index(kSurfaceResMm * 1e-3);
-  index.Insert(SurfaceVoxelCenters(kSurfaceResMm));
+  index.Insert(VoxelCenters(Workload::kSurface, kSurfaceResMm));
   const Cloud& queries = QueryCentersFor(Workload::kSurface);
   const double r = state.range(0) * 1e-2;
   size_t i = 0, hits = 0;
   for (auto _ : state) {
     index.Rebuild();
-    hits += index.RadiusCount(queries[i++ % queries.size()], r);
+    hits += index.RadiusSearch(queries[i++ % queries.size()], r);
   }
   state.counters["hits"] = static_cast<double>(hits) / static_cast<double>(state.iterations());
   state.counters["points"] = static_cast<double>(index.Voxels());

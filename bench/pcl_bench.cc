@@ -1,6 +1,7 @@
 // PCL (libpcl-dev 1.13) side of the benchmarks: pcl::octree::OctreePointCloudSearch over
-// the same points (raw points for the uniform workload, voxel centres for surface maps),
-// queried with radiusSearch. Its leaf size is kPclLeafM (see docs/benchmarks.md for why).
+// the distinct voxel centres of each workload (so that it answers exactly what the voxel
+// maps answer), queried with radiusSearch (indices and squared distances into reused
+// vectors). Its leaf size is kPclLeafM (see docs/benchmarks.md for why).
 #include <pcl/octree/octree_search.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -29,7 +30,7 @@ class PclOctreeAdapter {
     octree_.setInputCloud(cloud_);
     octree_.addPointsFromInputCloud();
   }
-  size_t RadiusCount(const PointF& c, double r) const {
+  size_t RadiusSearch(const PointF& c, double r) const {
     return octree_.radiusSearch(pcl::PointXYZ(c.x, c.y, c.z), r, indices_, sqr_dists_);
   }
   size_t Voxels() const { return cloud_->size(); }

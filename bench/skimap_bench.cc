@@ -1,7 +1,9 @@
 // SkiMap side of the side-by-side benchmarks: batch integration (with and without the
-// thread pool) and the map's own query API. See bench_harness.h for the loops.
+// thread pool), integration of an already merged batch (structure only, the unit the peers'
+// merged rows are fed) and the map's own query API. See bench_harness.h for the loops.
 #include <cmath>
 #include <memory>
+#include <vector>
 
 #include "bench/bench_harness.h"
 #include "bench/bench_register.h"
@@ -43,10 +45,18 @@ class SkiMapAdapter {
     batch_.Finalize(Pool());
     map_->Integrate(batch_);
   }
-  size_t RadiusCount(const PointF& c, double r) const {
-    size_t n = 0;
-    map_->RadiusSearch({c.x, c.y, c.z}, r, [&](const VoxelKey&, const WeightVoxel&) { ++n; });
-    return n;
+  // Structure only: the batch is already merged and finalized (same items the peers' merged
+  // rows get); one tree update per distinct voxel.
+  void InsertMerged(const VoxelBatch<WeightVoxel>& batch) { map_->Integrate(batch); }
+  bool HasVoxel(const VoxelKey& k) const { return map_->Find(k).has_value(); }
+  // Copies every hit (key and voxel) into a reused vector, as the PCL and nanoflann rows
+  // fill theirs (indices and distances).
+  size_t RadiusSearch(const PointF& c, double r) const {
+    hits_.clear();
+    map_->RadiusSearch({c.x, c.y, c.z}, r, [&](const VoxelKey& k, const WeightVoxel& v) {
+      hits_.push_back({k, v});
+    });
+    return hits_.size();
   }
   size_t BoxCount(const PointF& lo, const PointF& hi) const {
     KeyBox box;
@@ -81,6 +91,7 @@ class SkiMapAdapter {
   size_t LibBytes() const { return map_->MemoryUsage(); }
   void ReleaseScratch() {
     batch_ = {};
+    hits_ = {};
     if constexpr (kCompact) map_->Compact();
   }
 
@@ -96,11 +107,17 @@ class SkiMapAdapter {
   double res_;
   std::unique_ptr<SkiMap<WeightVoxel>> map_;
   VoxelBatch<WeightVoxel> batch_;
+  struct Hit {
+    VoxelKey key;
+    WeightVoxel voxel;
+  };
+  mutable std::vector<Hit> hits_;  // reused result buffer
 };
 
 const bool registered = [] {
   RegisterInserts<SkiMapAdapter<0>>("SkiMap");
   RegisterInserts<SkiMapAdapter<1>>("SkiMapPool");
+  RegisterMergedInserts<SkiMapAdapter<0>>("SkiMap");
   RegisterRadius<SkiMapAdapter<0>>("SkiMap");
   RegisterMapQueries<SkiMapAdapter<0>>("SkiMap");
   RegisterMemory<SkiMapAdapter<0>>("SkiMap");

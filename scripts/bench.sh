@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Side-by-side benchmarks: installs the peer libraries, builds build/bench, runs every
 # benchmark group with JSON output into build/bench/results/<group>.json and prints the
-# ratio tables (scripts/bench_report.py). About 10 minutes on 2 cores.
+# ratio tables (scripts/bench_report.py). 4-10 minutes on 2 shared cores, depending on load.
+# The harness checks every structure's answers (voxel sets, radius hits); a failed check
+# fails the benchmark and bench_report.py then exits non-zero without touching the docs.
 # Usage: scripts/bench.sh [--no-deps] [--update-docs]
 #   --no-deps      skip scripts/deps.sh --bench (not root, or peers already installed)
 #   --update-docs  also rewrite the generated part of docs/benchmarks.md
