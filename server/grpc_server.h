@@ -27,7 +27,11 @@ namespace skimap::server {
 class GrpcServer {
  public:
   struct Options {
-    std::string address = "0.0.0.0:50051";  // host:port; port 0 = any free port
+    // host:port; port 0 = any free port. Loopback unless `insecure` (listen_address.h).
+    std::string address = "127.0.0.1:50051";
+    // Allows an address beyond loopback. There is no authentication yet: anyone who can
+    // reach the port can read and write every map.
+    bool insecure = false;
     MapService::Options service;
     GrpcMapService::Options grpc;
     // The object service; objects.db_path "" keeps its database in memory only.
@@ -38,8 +42,9 @@ class GrpcServer {
     int max_message_bytes = 80 << 20;
   };
 
-  // Binds and starts serving. Unavailable if the address cannot be bound; the object
-  // database's load error if it cannot be opened.
+  // Binds and starts serving. FailedPrecondition for an address beyond loopback without
+  // `insecure`; Unavailable if the address cannot be bound; the object database's load
+  // error if it cannot be opened.
   static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options);
   ~GrpcServer();  // Shutdown()
 

@@ -37,7 +37,9 @@ class ObjectService {
     int threads = 2;              // mean shift and forest threads, >= 1
     size_t max_operations = 100;  // finished operations kept
     size_t max_queued_jobs = 16;  // dataset trainings + builds waiting; more: RESOURCE_EXHAUSTED
-    bool allow_dataset_paths = true;  // TrainObjectFromDataset (reads the server's disk)
+    // TrainObjectFromDataset reads datasets on the server's disk only under this directory;
+    // "" (the default) turns it off (PermissionDenied). See dataset_root.h.
+    std::string dataset_root;
   };
   // Opens the registry (loads the stored objects and classifier).
   static absl::StatusOr<std::unique_ptr<ObjectService>> Create(const Options& options);

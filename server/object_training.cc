@@ -5,6 +5,7 @@
 #include "absl/strings/str_format.h"
 #include "perception/echo.h"
 #include "perception/objects/training.h"
+#include "server/dataset_root.h"
 #include "server/object_codec.h"
 #include "server/object_service.h"
 
@@ -83,8 +84,9 @@ void ObjectService::FinishTraining(std::shared_ptr<TrainingSession> session,
 
 absl::StatusOr<v1::Operation> ObjectService::TrainObjectFromDataset(
     const v1::TrainObjectFromDatasetRequest& request) {
-  if (!options_.allow_dataset_paths) {
-    return absl::PermissionDeniedError("dataset_path: this server does not read datasets");
+  if (options_.dataset_root.empty()) {
+    return absl::PermissionDeniedError(
+        "dataset_path: this server reads no datasets (start skimapd with --dataset_root)");
   }
   if (request.dataset_path().empty()) {
     return absl::InvalidArgumentError("dataset_path: required (a BOP dataset root or scene)");
@@ -94,7 +96,10 @@ absl::StatusOr<v1::Operation> ObjectService::TrainObjectFromDataset(
   if (absl::Status s = registry_->CheckNew(obj_id); !s.ok()) return s;
   absl::StatusOr<objects::ObjectDatabaseParams> params = TrainingParamsFor(request.params());
   if (!params.ok()) return params.status();
-  const fs::path root(request.dataset_path());
+  absl::StatusOr<fs::path> resolved =
+      ResolveUnderRoot(options_.dataset_root, request.dataset_path(), "dataset_path");
+  if (!resolved.ok()) return resolved.status();
+  const fs::path& root = *resolved;
   const fs::path train = root / "train" / absl::StrFormat("%06d", obj_id);
   std::error_code ec;
   fs::path scene;
@@ -105,7 +110,7 @@ absl::StatusOr<v1::Operation> ObjectService::TrainObjectFromDataset(
   } else {
     return absl::NotFoundError(
         absl::StrCat("dataset_path: neither train/", absl::StrFormat("%06d", obj_id),
-                     " nor a BOP scene (scene_gt.json) at ", Echo(root.string())));
+                     " nor a BOP scene (scene_gt.json) at ", Echo(request.dataset_path())));
   }
   std::string name = request.display_name();
   if (name.empty() && scene == train) {

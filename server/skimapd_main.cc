@@ -1,7 +1,8 @@
 // skimapd: the SkiMap map server.
 //
-//   skimapd [--address=0.0.0.0:50051] [--data_dir=out/skimapd-data] [--worker_threads=2]
-//           [--max_message_mb=80] [--max_in_flight=8] [--queue_capacity=64]
+//   skimapd [--address=127.0.0.1:50051 [--insecure]] [--data_dir=out/skimapd-data]
+//           [--worker_threads=2] [--max_message_mb=80] [--max_in_flight=8]
+//           [--queue_capacity=64] [--dataset_root=DIR]
 //
 // Serves skimap.v1.MapService, skimap.v1.ObjectService (its object database is
 // DATA_DIR/objects.sqlite, loaded at start), grpc.health.v1.Health and server reflection.
@@ -20,7 +21,13 @@
 #include "absl/flags/usage.h"
 #include "server/grpc_server.h"
 
-ABSL_FLAG(std::string, address, "0.0.0.0:50051", "gRPC listen address (host:port)");
+ABSL_FLAG(std::string, address, "127.0.0.1:50051",
+          "gRPC listen address (host:port); beyond loopback only with --insecure");
+ABSL_FLAG(bool, insecure, false,
+          "allow --address beyond loopback without authentication (anyone who reaches the "
+          "port can read and write every map)");
+ABSL_FLAG(std::string, dataset_root, "",
+          "directory under which TrainObjectFromDataset may read datasets; empty: off");
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
           "directory for server data (created if missing): objects.sqlite holds the object "
           "database; maps live in memory for now");
@@ -56,6 +63,8 @@ int main(int argc, char** argv) {
   }
   skimap::server::GrpcServer::Options options;
   options.address = absl::GetFlag(FLAGS_address);
+  options.insecure = absl::GetFlag(FLAGS_insecure);
+  options.objects.dataset_root = absl::GetFlag(FLAGS_dataset_root);
   options.max_message_bytes = max_message_mb << 20;
   options.service.max_frame_bytes = size_t(options.max_message_bytes) / 5 * 4;
   options.service.worker_threads = absl::GetFlag(FLAGS_worker_threads);

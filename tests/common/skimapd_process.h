@@ -46,13 +46,17 @@ class SkimapdProcess {
 
   // Forks skimapd on 127.0.0.1:<free port> with a fresh data dir and waits until it
   // accepts calls (Unavailable after 20 s).
-  absl::Status Start() {
-    address_ = absl::StrCat("127.0.0.1:", FreePort());
+  absl::Status Start() { return StartOn("127.0.0.1"); }
+  // Like Start, listening on `host` (clients still connect through 127.0.0.1).
+  absl::Status StartOn(const std::string& host) {
+    const int port = FreePort();
+    address_ = absl::StrCat("127.0.0.1:", port);
+    const std::string listen = absl::StrCat(host, ":", port);
     data_dir_ = (std::filesystem::temp_directory_path() /
                  absl::StrCat("skimapd_test_", getpid(), "_", ++count_))
                     .string();
     std::filesystem::create_directories(data_dir_);
-    std::vector<std::string> args = {binary_, "--address=" + address_,
+    std::vector<std::string> args = {binary_, "--address=" + listen,
                                      "--data_dir=" + data_dir_ + "/data"};
     args.insert(args.end(), flags_.begin(), flags_.end());
     pid_ = fork();

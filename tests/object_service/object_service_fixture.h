@@ -27,6 +27,8 @@ inline std::unique_ptr<server::GrpcServer> StartServer(const std::string& data_d
   o.service.worker_threads = 1;
   o.objects.db_path = data_dir + "/objects.sqlite";
   o.objects.threads = 2;
+  // TrainObjectFromDataset reads the generated test datasets only.
+  o.objects.dataset_root = SKIMAP_OBJECTS_TEST_DATA_DIR;
   absl::StatusOr<std::unique_ptr<server::GrpcServer>> s = server::GrpcServer::Start(o);
   EXPECT_TRUE(s.ok()) << s.status();
   return s.ok() ? *std::move(s) : nullptr;

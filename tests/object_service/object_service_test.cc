@@ -3,7 +3,10 @@
 // restart on the same data dir, delete, rebuild from the reloaded training descriptors.
 #include <gtest/gtest.h>
 
+#include <gmock/gmock.h>
+
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <set>
 
@@ -218,8 +221,46 @@ TEST(ObjectServiceTest, TrainFromServerDatasetIsAnOperationWithProgress) {
   // The same object again: ALREADY_EXISTS at once; a missing dataset: NOT_FOUND.
   EXPECT_EQ(c->TrainObjectFromDataset(r).status().code(), absl::StatusCode::kAlreadyExists);
   r.set_obj_id(4);
-  r.set_dataset_path("/nonexistent/skimap-dataset");
+  r.set_dataset_path("no-such-dataset");  // relative to the dataset root
   EXPECT_EQ(c->TrainObjectFromDataset(r).status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST(ObjectServiceTest, DatasetPathsStayUnderTheDatasetRootAndAreNeverEchoedOutsideIt) {
+  std::unique_ptr<server::GrpcServer> s = StartServer(TempDir());
+  ASSERT_NE(s, nullptr);
+  std::unique_ptr<client::ObjectClient> c = Connect(*s);
+  const std::string root = SKIMAP_OBJECTS_TEST_DATA_DIR;
+  std::filesystem::create_directories(root);
+  // A symbolic link inside the root that points out of it.
+  const std::string link = root + "/escape";
+  std::filesystem::remove(link);
+  std::filesystem::create_directory_symlink("/etc", link);
+  v1::TrainObjectFromDatasetRequest r;
+  r.set_obj_id(5);
+  for (const std::string outside : {std::string("/etc"), std::string("/nonexistent/secret-dir"),
+                                    std::string("../../../../../../etc"), root + "/../x",
+                                    root + "2", std::string("escape/ssl")}) {
+    SCOPED_TRACE(outside);
+    r.set_dataset_path(outside);
+    const absl::Status status = c->TrainObjectFromDataset(r).status();
+    EXPECT_EQ(status.code(), absl::StatusCode::kPermissionDenied) << status;
+    EXPECT_THAT(status.message(), ::testing::Not(::testing::HasSubstr("etc")));
+    EXPECT_THAT(status.message(), ::testing::Not(::testing::HasSubstr("secret")));
+  }
+  std::filesystem::remove(link);
+  // A server without a root reads no dataset at all.
+  const std::string dir = TempDir();
+  server::GrpcServer::Options o;
+  o.address = "127.0.0.1:0";
+  o.objects.db_path = dir + "/objects.sqlite";
+  absl::StatusOr<std::unique_ptr<server::GrpcServer>> closed = server::GrpcServer::Start(o);
+  ASSERT_TRUE(closed.ok());
+  r.set_dataset_path(objects::testing::MiniDataset());
+  EXPECT_EQ(client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", (*closed)->port()))
+                ->TrainObjectFromDataset(r)
+                .status()
+                .code(),
+            absl::StatusCode::kPermissionDenied);
 }
 
 }  // namespace
