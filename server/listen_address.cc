@@ -10,13 +10,13 @@ bool IsLoopbackAddress(const std::string& address) {
   if (absl::StartsWith(address, "unix:")) return true;  // a socket file: local by nature
   const size_t colon = address.rfind(':');
   if (colon == std::string::npos) return false;
-  std::string host = address.substr(0, colon);
-  if (absl::ConsumePrefix(&host, "ipv4:") || absl::ConsumePrefix(&host, "ipv6:")) {}
+  absl::string_view host(address.data(), colon);
+  if (!absl::ConsumePrefix(&host, "ipv4:")) absl::ConsumePrefix(&host, "ipv6:");
   if (host == "localhost" || host == "[::1]") return true;
   // 127.0.0.0/8, written as four decimal octets.
-  const std::vector<std::string> octets = absl::StrSplit(host, '.');
+  const std::vector<absl::string_view> octets = absl::StrSplit(host, '.');
   if (octets.size() != 4 || octets[0] != "127") return false;
-  for (const std::string& o : octets) {
+  for (absl::string_view o : octets) {
     int v = 0;
     if (!absl::SimpleAtoi(o, &v) || v < 0 || v > 255) return false;
   }

@@ -16,9 +16,9 @@ TEST(ListenAddressTest, OnlyLoopbackAddressesCountAsLocal) {
                             "unix:/tmp/skimapd.sock", "ipv4:127.0.0.1:1"}) {
     EXPECT_TRUE(server::IsLoopbackAddress(local)) << local;
   }
-  for (const char* remote : {"0.0.0.0:50051", "[::]:50051", ":50051", "10.0.0.1:50051",
-                             "128.0.0.1:1", "127.0.0.1", "127.0.0.256:1", "example.com:50051",
-                             "127.0.0.1.evil.com:1"}) {
+  for (const char* remote :
+       {"0.0.0.0:50051", "[::]:50051", ":50051", "10.0.0.1:50051", "128.0.0.1:1", "127.0.0.1",
+        "127.0.0.256:1", "example.com:50051", "127.0.0.1.evil.com:1"}) {
     EXPECT_FALSE(server::IsLoopbackAddress(remote)) << remote;
   }
 }

@@ -1,9 +1,8 @@
 // The object service end to end over gRPC: train two sim `mini` objects by streaming,
 // list, get, build the classifier as a long-running operation, classify held-out views,
 // restart on the same data dir, delete, rebuild from the reloaded training descriptors.
-#include <gtest/gtest.h>
-
 #include <gmock/gmock.h>
+#include <gtest/gtest.h>
 
 #include <cstdio>
 #include <filesystem>
