@@ -53,7 +53,8 @@ TEST_F(ServerTest, OccupancyGridMarksTheBoxAndTheVisibleFloor) {
   CreateMap("room");
   auto ack = client_->IntegrateFrame(MakeFrame("maps/room", 1, DefaultView()));
   ASSERT_TRUE(ack.ok()) << ack.status();
-  EXPECT_GT(ack->voxels_touched(), 100u);
+  // Measured 5 862 voxels (2026-11-23); the floor is two thirds of it.
+  EXPECT_GT(ack->voxels_touched(), 3900u);
   EXPECT_EQ(ack->points(), 160u * 120u);
 
   v1::GetOccupancyGridRequest request;
@@ -186,7 +187,7 @@ TEST_F(ServerTest, VoxelPagesCoverTheMapOnceInKeyOrder) {
     request.set_page_token(page->next_page_token());
   } while (!request.page_token().empty());
   EXPECT_EQ(total, info->stats().voxels());
-  EXPECT_GT(pages, 2u);
+  EXPECT_EQ(pages, (total + 96) / 97);  // full pages of 97 but the last (61 measured)
   request.set_page_token("garbage");
   EXPECT_EQ(client_->GetVoxels(request).status().code(), absl::StatusCode::kInvalidArgument);
   request.clear_page_token();
