@@ -25,8 +25,8 @@ LiveMap::LiveMap(std::string id, const Options& options)
     : id_(std::move(id)),
       incarnation_(uint64_t{std::random_device()()} << 32 | std::random_device()()),
       options_(options),
-      volume_({.resolution = options.config.resolution, .pool = options.pool}),
-      free_({.resolution = options.config.resolution, .pool = options.pool}),
+      state_(options.config, options.pool),
+      stages_(MakeFrameStages(options.config, Grid(options.config.resolution), options.pool)),
       queue_({.capacity = options.queue_capacity}) {}
 
 LiveMap::~LiveMap() = default;
@@ -71,15 +71,8 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   if (absl::Status s = ValidatePoseInMap(decoded->pose, options_.config, "pose"); !s.ok()) {
     return s;
   }
-  perception::IntegrationStats stats;
-  BuildBatches(*decoded, &batch_, &free_batch_, &stats);
-  WriteStats written;
-  {
-    WriterLock lock(&snapshot_mu_);
-    written = volume_.Integrate(batch_);
-    if (!free_batch_.empty()) free_.Integrate(free_batch_);
-    ++frames_;
-  }
+  const perception::IntegrationStats stats = StageFrame(*decoded, FrameStage::kAdd);
+  const WriteStats written = ApplyStages(1);
   sequences_.insert(frame->sequence());
   KeepFrame(frame->sequence(), {frame, decoded->pose});
   v1::FrameAck ack;
@@ -101,16 +94,22 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   return ack;
 }
 
-void LiveMap::BuildBatches(const perception::RgbdFrame& frame, VoxelBatch<RGBWeightedVoxel>* batch,
-                           VoxelBatch<WeightVoxel>* free_batch,
-                           perception::IntegrationStats* stats) {
-  const MapConfig& c = options_.config;
-  *stats = perception::BuildFrameBatch(frame, volume_.grid(), c.integration, batch, options_.pool);
-  if (c.carve_free_space) {
-    perception::BuildFreeSpaceBatch(frame, free_.grid(), c.integration, c.FreeSpace(), free_batch);
-  } else {
-    free_batch->Clear();
+perception::IntegrationStats LiveMap::StageFrame(const perception::RgbdFrame& frame,
+                                                 FrameStage::Sign sign) {
+  perception::IntegrationStats first;
+  for (size_t i = 0; i < stages_.size(); ++i) {
+    const perception::IntegrationStats stats = stages_[i]->Stage(frame, sign);
+    if (i == 0) first = stats;
   }
+  return first;
+}
+
+WriteStats LiveMap::ApplyStages(uint64_t frames_added) {
+  WriteStats total;
+  WriterLock lock(&snapshot_mu_);
+  for (const std::unique_ptr<FrameStage>& stage : stages_) total += stage->Apply(&state_);
+  state_.frames += frames_added;
+  return total;
 }
 
 void LiveMap::KeepFrame(uint64_t sequence, KeptFrame kept) {
@@ -156,39 +155,24 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
     }
     poses.push_back(*pose);
   }
-  // Every frame's old and new contributions, merged into four batches outside the lock
-  // (their size is bounded by the distinct voxels involved, not by the frame count) ...
-  VoxelBatch<RGBWeightedVoxel> old_all, new_all;
-  VoxelBatch<WeightVoxel> old_free_all, new_free_all;
+  // Every frame leaves with its old pose and comes back with the new one: staged outside
+  // the lock (merged per voxel in each stage) ...
   for (int i = 0; i < request.updates_size(); ++i) {
     const KeptFrame& kept = kept_.at(request.updates(i).sequence());
     absl::StatusOr<perception::RgbdFrame> frame = DecodeFrame(*kept.frame);
-    if (!frame.ok()) return frame.status();  // decoded fine before: cannot happen
-    perception::IntegrationStats ignored;
+    if (!frame.ok()) {  // decoded fine before: cannot happen
+      for (const std::unique_ptr<FrameStage>& stage : stages_) stage->Clear();
+      return frame.status();
+    }
     frame->pose = kept.pose;
-    BuildBatches(*frame, &old_batch_, &old_free_batch_, &ignored);
+    StageFrame(*frame, FrameStage::kRemove);
     frame->pose = poses[i];
-    BuildBatches(*frame, &batch_, &free_batch_, &ignored);
-    old_all.AddItems(old_batch_.items());
-    new_all.AddItems(batch_.items());
-    old_free_all.AddItems(old_free_batch_.items());
-    new_free_all.AddItems(free_batch_.items());
+    StageFrame(*frame, FrameStage::kAdd);
   }
-  old_all.Finalize(options_.pool);
-  new_all.Finalize(options_.pool);
-  old_free_all.Finalize(options_.pool);
-  new_free_all.Finalize(options_.pool);
-  // ... applied under one exclusive lock: a reader sees every correction or none. The
-  // weights are integer counts, so merged de-integration is exact.
+  // ... and applied in one snapshot: a reader sees every correction or none. The weights
+  // are integer counts, so merged de-integration is exact.
   v1::UpdatePosesResponse response;
-  WriteStats total;
-  {
-    WriterLock lock(&snapshot_mu_);
-    total += volume_.Deintegrate(old_all);
-    total += volume_.Integrate(new_all);
-    if (!old_free_all.empty()) free_.Deintegrate(old_free_all);
-    if (!new_free_all.empty()) free_.Integrate(new_free_all);
-  }
+  const WriteStats total = ApplyStages(0);
   for (int i = 0; i < request.updates_size(); ++i) {
     kept_.at(request.updates(i).sequence()).pose = poses[i];
   }
@@ -201,13 +185,13 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
 v1::MapStats LiveMap::Stats() const {
   v1::MapStats stats;
   ReaderLock lock(&snapshot_mu_);
-  stats.set_voxels(volume_.size());
-  stats.set_memory_bytes(volume_.MemoryUsage());
-  stats.set_frames(frames_);
+  stats.set_voxels(state_.rgb.size());
+  stats.set_memory_bytes(state_.rgb.MemoryUsage() + state_.free.MemoryUsage());
+  stats.set_frames(state_.frames);
   stats.set_kept_frame_bytes(kept_bytes_);
-  stats.set_free_voxels(free_.size());
-  if (std::optional<KeyBox> box = volume_.Bounds()) {
-    const Grid& g = volume_.grid();
+  stats.set_free_voxels(state_.free.size());
+  if (std::optional<KeyBox> box = state_.rgb.Bounds()) {
+    const Grid& g = state_.rgb.grid();
     const double r = g.resolution();
     auto* b = stats.mutable_bounds();
     b->mutable_min()->set_x(g.origin().x + box->min.x * r);

@@ -1,16 +1,18 @@
-// LiveMap: one map of the service: its RGB volume, the frames kept for pose updates, and
-// the worker that integrates frames in order.
+// LiveMap: one map of the service: its MapState (every volume), the per-map pipeline of
+// frame stages (frame_stages.h), the frames kept for pose updates, and the worker that
+// runs writes in order.
 //
 //   LiveMap map("kitchen", {.config = config, .pool = &pool});
 //   map.SubmitFrame(frame, [](absl::StatusOr<v1::FrameAck> ack) { ... });
 //   absl::StatusOr<OccupancyGrid> grid =
-//       map.Read([&](const Volume& v, uint64_t frames) { return ComputeOccupancyGrid(v, o); });
+//       map.Read([&](const MapState& s) { return ComputeOccupancyGrid(s.rgb, o); });
 //
 // Writes (frames, pose updates) run one at a time on the map's worker thread, fed by a
 // bounded queue: a full queue answers ResourceExhausted at once instead of buffering.
-// Decoding and back-projection run outside any lock; only applying a frame's batch to the
-// volume holds the snapshot lock exclusively. Readers (Read, Stats) hold it shared, so
-// every read sees a consistent snapshot made of whole frames.
+// Decoding and every stage's Stage() run outside any lock; only the stages' Apply holds the
+// snapshot lock exclusively, once per write (a pose update of any number of frames is one
+// Apply). Readers (Read, Stats) hold it shared, so every read sees a consistent snapshot
+// made of whole frames and whole pose updates.
 //
 // Thread safety: thread safe. Completion callbacks run on the worker thread (or on the
 // submitting thread when the frame is refused up front) and must not block for long.
@@ -28,7 +30,9 @@
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "perception/rgbd_frame.h"
+#include "server/frame_stages.h"
 #include "server/map_config.h"
+#include "server/map_state.h"
 #include "server/work_queue.h"
 #include "skimap/rw_lock.h"
 #include "skimap/skimap.h"
@@ -37,11 +41,6 @@
 #include "skimap/v1/maps.pb.h"
 
 namespace skimap::server {
-
-using Volume = SkiMap<RGBWeightedVoxel>;
-// Free-space evidence for maps with carve_free_space: one layer (z key 0) whose weight
-// counts the frames whose rays crossed a column's band (perception/free_space.h).
-using FreeVolume = SkiMap<WeightVoxel>;
 
 class LiveMap {
  public:
@@ -73,19 +72,12 @@ class LiveMap {
   // FailedPrecondition (frame no longer kept); nothing is applied then.
   void SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> request, PosesDone done);
 
-  // Runs fn(const Volume&, uint64_t frames_integrated) on a consistent snapshot and
-  // returns its result. fn must not call writers of this map.
+  // Runs fn(const MapState&) on a consistent snapshot and returns its result. fn must not
+  // call writers of this map.
   template <class Fn>
   auto Read(Fn&& fn) const {
     ReaderLock lock(&snapshot_mu_);
-    return fn(volume_, frames_);
-  }
-  // Like Read, with the free-space volume too (empty unless the map carves):
-  // fn(const Volume&, const FreeVolume&, uint64_t frames_integrated).
-  template <class Fn>
-  auto ReadWithFreeSpace(Fn&& fn) const {
-    ReaderLock lock(&snapshot_mu_);
-    return fn(volume_, free_, frames_);
+    return fn(state_);
   }
   // Counters from one snapshot.
   v1::MapStats Stats() const;
@@ -104,10 +96,12 @@ class LiveMap {
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(
       const v1::UpdatePosesRequest& request);
   void KeepFrame(uint64_t sequence, KeptFrame kept);
-  // Builds the batches that integrate `frame` with frame.pose: its observations, and its
-  // free-space evidence (left empty when the map does not carve).
-  void BuildBatches(const perception::RgbdFrame& frame, VoxelBatch<RGBWeightedVoxel>* batch,
-                    VoxelBatch<WeightVoxel>* free_batch, perception::IntegrationStats* stats);
+  // Stages `frame` (with frame.pose) in every stage; the first stage's counts.
+  perception::IntegrationStats StageFrame(const perception::RgbdFrame& frame,
+                                          FrameStage::Sign sign);
+  // Applies every stage's staged changes under the exclusive lock; `frames_added` is added
+  // to the frame counter in the same snapshot.
+  WriteStats ApplyStages(uint64_t frames_added);
   absl::Status MapGone() const;
 
   const std::string id_;
@@ -116,16 +110,13 @@ class LiveMap {
   std::atomic<bool> deleted_{false};
 
   mutable RwLock snapshot_mu_;
-  Volume volume_ ABSL_GUARDED_BY(snapshot_mu_);
-  FreeVolume free_ ABSL_GUARDED_BY(snapshot_mu_);
-  uint64_t frames_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
+  MapState state_ ABSL_GUARDED_BY(snapshot_mu_);
   size_t kept_bytes_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
 
   // Touched only on the worker thread (tasks of queue_ run one at a time).
   std::map<uint64_t, KeptFrame> kept_;
   std::unordered_set<uint64_t> sequences_;
-  VoxelBatch<RGBWeightedVoxel> batch_, old_batch_;
-  VoxelBatch<WeightVoxel> free_batch_, old_free_batch_;  // empty unless carving
+  std::vector<std::unique_ptr<FrameStage>> stages_;  // in order
 
   WorkQueue queue_;  // last: destroyed first, draining tasks while the rest is alive
 };

@@ -136,8 +136,8 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   // One frame seeing through a column is evidence enough (not the surface threshold).
   constexpr float kMinFreeFrames = 1;
   v1::OccupancyGrid out;
-  absl::Status status = (*map)->ReadWithFreeSpace([&](const Volume& volume, const FreeVolume& free,
-                                                      uint64_t frames) {
+  absl::Status status = (*map)->Read([&](const MapState& state) {
+    const Volume& volume = state.rgb;
     absl::StatusOr<RasterGeometry> geometry = MakeRasterGeometry(
         volume.grid(), o.region, o.region ? std::nullopt : volume.FootprintBounds());
     if (!geometry.ok()) return PrefixField(geometry.status(), "region");
@@ -147,8 +147,8 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
     }
     absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
     if (!grid.ok()) return PrefixField(grid.status(), "region");
-    MarkCarvedCells(free, kMinFreeFrames, &*grid);
-    FillGeometry(grid->geometry, frames, &out);
+    MarkCarvedCells(state.free, kMinFreeFrames, &*grid);
+    FillGeometry(grid->geometry, state.frames, &out);
     out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
     return absl::OkStatus();
   });
@@ -170,7 +170,8 @@ absl::StatusOr<v1::HeightMap> MapService::GetHeightMap(
   if (!min_weight.ok()) return min_weight.status();
   o.min_weight = *min_weight;
   v1::HeightMap out;
-  absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t frames) {
+  absl::Status status = (*map)->Read([&](const MapState& state) {
+    const Volume& volume = state.rgb;
     absl::StatusOr<RasterGeometry> geometry = MakeRasterGeometry(
         volume.grid(), o.region, o.region ? std::nullopt : volume.FootprintBounds());
     if (!geometry.ok()) return PrefixField(geometry.status(), "region");
@@ -181,7 +182,7 @@ absl::StatusOr<v1::HeightMap> MapService::GetHeightMap(
     }
     absl::StatusOr<HeightMap> hm = ComputeHeightMap(volume, o);
     if (!hm.ok()) return PrefixField(hm.status(), "region");
-    FillGeometry(hm->geometry, frames, &out);
+    FillGeometry(hm->geometry, state.frames, &out);
     out.mutable_heights()->Assign(hm->heights.begin(), hm->heights.end());
     return absl::OkStatus();
   });
@@ -212,7 +213,8 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
     }
   }
   v1::GetVoxelsResponse out;
-  absl::Status status = (*map)->Read([&](const Volume& volume, uint64_t) -> absl::Status {
+  absl::Status status = (*map)->Read([&](const MapState& state) -> absl::Status {
+    const Volume& volume = state.rgb;
     const Grid& grid = volume.grid();
     out.set_resolution(grid.resolution());
     absl::StatusOr<KeyBox> box = ToKeyBox(grid, request);
@@ -271,7 +273,8 @@ absl::StatusOr<v1::RadiusSearchResponse> MapService::RadiusSearch(
       MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), (*map)->config());
   if (!min_weight.ok()) return min_weight.status();
   v1::RadiusSearchResponse out;
-  (*map)->Read([&](const Volume& volume, uint64_t) {
+  (*map)->Read([&](const MapState& state) {
+    const Volume& volume = state.rgb;
     volume.RadiusSearch({c.x(), c.y(), c.z()}, request.radius(),
                         [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
                           if (v.Weight() < *min_weight) return;
