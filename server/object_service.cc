@@ -11,6 +11,7 @@
 #include "perception/image_codec.h"
 #include "perception/objects/training.h"
 #include "server/object_codec.h"
+#include "server/page_token.h"
 
 namespace skimap::server {
 
@@ -40,11 +41,14 @@ absl::StatusOr<v1::ListObjectsResponse> ObjectService::ListObjects(
     return absl::InvalidArgumentError(
         absl::StrCat("page_size: ", request.page_size(), " must be in 0..1000"));
   }
+  const uint32_t query = QueryFingerprint(0, "ListObjects", "");
   int after = 0;
   if (!request.page_token().empty()) {
-    absl::StatusOr<int> id = ParseObjectName(request.page_token(), "page_token");
-    if (!id.ok()) return id.status();
-    after = *id;
+    absl::StatusOr<std::string> position = DecodePageToken(request.page_token(), query);
+    if (!position.ok()) return position.status();
+    if (!absl::SimpleAtoi(*position, &after)) {
+      return absl::InvalidArgumentError("page_token: not a ListObjects position");
+    }
   }
   const size_t limit = request.page_size() == 0 ? 100 : static_cast<size_t>(request.page_size());
   const std::optional<objects::ObjectDatabaseParams> params = registry_->params();
@@ -53,7 +57,8 @@ absl::StatusOr<v1::ListObjectsResponse> ObjectService::ListObjects(
     const objects::ObjectModel& m = v.object->model;
     if (m.obj_id <= after || !params) continue;  // !params: every object was just deleted
     if (static_cast<size_t>(out.objects_size()) == limit) {
-      out.set_next_page_token(out.objects(out.objects_size() - 1).name());
+      out.set_next_page_token(
+          EncodePageToken(query, absl::StrCat(out.objects(out.objects_size() - 1).obj_id())));
       break;
     }
     *out.add_objects() = ToApiObject(m, *params, v.in_classifier);

@@ -104,7 +104,14 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     absl::StatusOr<v1::ListObjectsResponse> page = c->ListObjects(one_per_page);
     ASSERT_TRUE(page.ok());
     EXPECT_EQ(page->objects_size(), 1);
-    EXPECT_EQ(page->next_page_token(), "objects/1");
+    ASSERT_FALSE(page->next_page_token().empty());  // opaque
+    one_per_page.set_page_token(page->next_page_token());
+    absl::StatusOr<v1::ListObjectsResponse> second = c->ListObjects(one_per_page);
+    ASSERT_TRUE(second.ok()) << second.status();
+    ASSERT_EQ(second->objects_size(), 1);
+    EXPECT_EQ(second->objects(0).name(), "objects/2");
+    one_per_page.set_page_token("objects/1");  // a bare name is not a token
+    EXPECT_EQ(c->ListObjects(one_per_page).status().code(), absl::StatusCode::kInvalidArgument);
 
     absl::StatusOr<v1::Object> full = c->GetObject("objects/1", v1::OBJECT_VIEW_FULL);
     ASSERT_TRUE(full.ok()) << full.status();
