@@ -25,6 +25,10 @@ absl::Status Statement::Check(int rc, std::string_view what) const {
   const std::string msg = absl::StrCat("sqlite ", std::string(what), ": ", sqlite3_errmsg(db_),
                                        " (", sqlite3_errstr(rc), ")");
   if (rc == SQLITE_BUSY || rc == SQLITE_LOCKED) return absl::UnavailableError(msg);
+  if (rc == SQLITE_FULL) return absl::ResourceExhaustedError(msg);
+  if (rc == SQLITE_READONLY || rc == SQLITE_IOERR || rc == SQLITE_CANTOPEN) {
+    return absl::UnavailableError(msg);
+  }
   if (rc == SQLITE_CORRUPT || rc == SQLITE_NOTADB) return absl::DataLossError(msg);
   if (rc == SQLITE_CONSTRAINT) return absl::FailedPreconditionError(msg);
   return absl::InternalError(msg);
@@ -114,6 +118,10 @@ absl::Status Database::Exec(std::string_view sql) {
       absl::StrCat("sqlite exec on ", path_, ": ", err ? err : sqlite3_errstr(rc));
   sqlite3_free(err);
   if (rc == SQLITE_BUSY || rc == SQLITE_LOCKED) return absl::UnavailableError(msg);
+  if (rc == SQLITE_FULL) return absl::ResourceExhaustedError(msg);
+  if (rc == SQLITE_READONLY || rc == SQLITE_IOERR || rc == SQLITE_CANTOPEN) {
+    return absl::UnavailableError(msg);
+  }
   if (rc == SQLITE_CORRUPT || rc == SQLITE_NOTADB) return absl::DataLossError(msg);
   return absl::InternalError(msg);
 }

@@ -1,0 +1,260 @@
+#include "storage/sqlite_map_store.h"
+
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+#include "storage/migrations.h"
+
+namespace skimap::storage {
+namespace {
+
+#define SK_RETURN_IF_ERROR(expr) \
+  do {                           \
+    absl::Status _s = (expr);    \
+    if (!_s.ok()) return _s;     \
+  } while (0)
+
+#define SK_ASSIGN_OR_RETURN(lhs, expr)          \
+  auto lhs##_or = (expr);                       \
+  if (!lhs##_or.ok()) return lhs##_or.status(); \
+  auto& lhs = *lhs##_or
+
+// Version 1 of maps.sqlite. Journal payloads and chunks are large blobs: ordinary rowid
+// tables with a unique key, not WITHOUT ROWID (SQLite's advice for rows over ~1/20 page).
+constexpr char kMapStoreV1[] = R"sql(
+CREATE TABLE maps (
+  id TEXT PRIMARY KEY,
+  options BLOB NOT NULL,
+  last_position INTEGER NOT NULL DEFAULT 0,
+  snapshot_position INTEGER NOT NULL DEFAULT 0,
+  snapshot_unix_ms INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE journal (
+  map TEXT NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  position INTEGER NOT NULL,
+  kind INTEGER NOT NULL,
+  payload BLOB NOT NULL,
+  UNIQUE (map, position)
+);
+CREATE TABLE chunks (
+  map TEXT NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  volume TEXT NOT NULL,
+  cx INTEGER NOT NULL,
+  cy INTEGER NOT NULL,
+  cz INTEGER NOT NULL,
+  bytes BLOB NOT NULL,
+  UNIQUE (map, volume, cx, cy, cz)
+);
+)sql";
+
+constexpr Migration kMapStoreMigrations[] = {
+    {1, "map store: maps, journal, chunks", kMapStoreV1},
+};
+
+absl::Status NoMap(const std::string& id) {
+  return absl::NotFoundError(absl::StrCat("map store: no map ", id));
+}
+
+int64_t NowUnixMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<SqliteMapStore>> SqliteMapStore::Open(const std::string& path) {
+  SK_ASSIGN_OR_RETURN(db, Database::Open(path));
+  // WAL: readers never block the writer; FULL: every commit is fsynced before it returns.
+  SK_RETURN_IF_ERROR(db->Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=FULL;"));
+  SK_RETURN_IF_ERROR(Migrate(*db, kMapStoreMigrations));
+  return std::unique_ptr<SqliteMapStore>(new SqliteMapStore(std::move(db)));
+}
+
+absl::Status SqliteMapStore::CreateMap(const std::string& id, const std::string& options) {
+  if (id.empty()) return absl::InvalidArgumentError("map store: empty map id");
+  std::lock_guard<std::mutex> lock(mu_);
+  Transaction tx(*db_);
+  SK_RETURN_IF_ERROR(tx.status());
+  SK_ASSIGN_OR_RETURN(exists, db_->Prepare("SELECT 1 FROM maps WHERE id = ?"));
+  SK_RETURN_IF_ERROR(exists.BindText(1, id));
+  SK_ASSIGN_OR_RETURN(found, exists.Step());
+  if (found) return absl::AlreadyExistsError(absl::StrCat("map store: map ", id, " exists"));
+  SK_ASSIGN_OR_RETURN(insert, db_->Prepare("INSERT INTO maps (id, options) VALUES (?, ?)"));
+  SK_RETURN_IF_ERROR(insert.BindText(1, id));
+  SK_RETURN_IF_ERROR(insert.BindBlob(2, options));
+  SK_RETURN_IF_ERROR(insert.Run());
+  return tx.Commit();
+}
+
+absl::Status SqliteMapStore::DeleteMap(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Transaction tx(*db_);
+  SK_RETURN_IF_ERROR(tx.status());
+  SK_RETURN_IF_ERROR(GetMapLocked(id).status());
+  // The foreign keys cascade to the journal and the chunks.
+  SK_ASSIGN_OR_RETURN(del, db_->Prepare("DELETE FROM maps WHERE id = ?"));
+  SK_RETURN_IF_ERROR(del.BindText(1, id));
+  SK_RETURN_IF_ERROR(del.Run());
+  return tx.Commit();
+}
+
+absl::StatusOr<StoredMap> SqliteMapStore::GetMapLocked(const std::string& id) {
+  SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT options, last_position, snapshot_position, "
+                                       "snapshot_unix_ms FROM maps WHERE id = ?"));
+  SK_RETURN_IF_ERROR(st.BindText(1, id));
+  SK_ASSIGN_OR_RETURN(row, st.Step());
+  if (!row) return NoMap(id);
+  return StoredMap{id, st.ColumnBlob(0), uint64_t(st.ColumnInt(1)), uint64_t(st.ColumnInt(2)),
+                   st.ColumnInt(3)};
+}
+
+absl::StatusOr<StoredMap> SqliteMapStore::GetMap(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  return GetMapLocked(id);
+}
+
+absl::StatusOr<std::vector<StoredMap>> SqliteMapStore::ListMaps() {
+  std::lock_guard<std::mutex> lock(mu_);
+  SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT id, options, last_position, snapshot_position, "
+                                       "snapshot_unix_ms FROM maps ORDER BY id"));
+  std::vector<StoredMap> out;
+  while (true) {
+    SK_ASSIGN_OR_RETURN(row, st.Step());
+    if (!row) break;
+    out.push_back({st.ColumnText(0), st.ColumnBlob(1), uint64_t(st.ColumnInt(2)),
+                   uint64_t(st.ColumnInt(3)), st.ColumnInt(4)});
+  }
+  return out;
+}
+
+absl::StatusOr<uint64_t> SqliteMapStore::AppendJournal(const std::string& id,
+                                                       const std::vector<JournalRecord>& records) {
+  if (records.empty()) return absl::InvalidArgumentError("map store: no journal record");
+  std::lock_guard<std::mutex> lock(mu_);
+  Transaction tx(*db_);
+  SK_RETURN_IF_ERROR(tx.status());
+  SK_ASSIGN_OR_RETURN(map, GetMapLocked(id));
+  SK_ASSIGN_OR_RETURN(
+      insert,
+      db_->Prepare("INSERT INTO journal (map, position, kind, payload) VALUES (?, ?, ?, ?)"));
+  uint64_t position = map.last_position;
+  for (const JournalRecord& r : records) {
+    if (r.kind != JournalRecord::kFrame && r.kind != JournalRecord::kPoseUpdate) {
+      return absl::InvalidArgumentError("map store: unknown journal record kind");
+    }
+    insert.Reset();
+    SK_RETURN_IF_ERROR(insert.BindText(1, id));
+    SK_RETURN_IF_ERROR(insert.BindInt(2, int64_t(++position)));
+    SK_RETURN_IF_ERROR(insert.BindInt(3, r.kind));
+    SK_RETURN_IF_ERROR(insert.BindBlob(4, r.payload));
+    SK_RETURN_IF_ERROR(insert.Run());
+  }
+  SK_ASSIGN_OR_RETURN(update, db_->Prepare("UPDATE maps SET last_position = ? WHERE id = ?"));
+  SK_RETURN_IF_ERROR(update.BindInt(1, int64_t(position)));
+  SK_RETURN_IF_ERROR(update.BindText(2, id));
+  SK_RETURN_IF_ERROR(update.Run());
+  SK_RETURN_IF_ERROR(tx.Commit());  // synchronous=FULL: durable here
+  return position;
+}
+
+absl::Status SqliteMapStore::ReadJournal(
+    const std::string& id, uint64_t after,
+    const std::function<absl::Status(const JournalRecord&)>& fn) {
+  std::lock_guard<std::mutex> lock(mu_);
+  SK_RETURN_IF_ERROR(GetMapLocked(id).status());
+  SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT position, kind, payload FROM journal "
+                                       "WHERE map = ? AND position > ? ORDER BY position"));
+  SK_RETURN_IF_ERROR(st.BindText(1, id));
+  SK_RETURN_IF_ERROR(st.BindInt(2, int64_t(after)));
+  while (true) {
+    SK_ASSIGN_OR_RETURN(row, st.Step());
+    if (!row) return absl::OkStatus();
+    const int64_t kind = st.ColumnInt(1);
+    if (kind != JournalRecord::kFrame && kind != JournalRecord::kPoseUpdate) {
+      return absl::DataLossError(
+          absl::StrCat("map store: map ", id, ": journal record of unknown kind ", kind));
+    }
+    JournalRecord r{JournalRecord::Kind(kind), st.ColumnBlob(2), uint64_t(st.ColumnInt(0))};
+    SK_RETURN_IF_ERROR(fn(r));
+  }
+}
+
+absl::Status SqliteMapStore::PruneJournal(const std::string& id, uint64_t upto) {
+  std::lock_guard<std::mutex> lock(mu_);
+  SK_RETURN_IF_ERROR(GetMapLocked(id).status());
+  SK_ASSIGN_OR_RETURN(del, db_->Prepare("DELETE FROM journal WHERE map = ? AND position <= ?"));
+  SK_RETURN_IF_ERROR(del.BindText(1, id));
+  SK_RETURN_IF_ERROR(del.BindInt(2, int64_t(upto)));
+  return del.Run();
+}
+
+absl::Status SqliteMapStore::WriteSnapshot(const std::string& id, uint64_t covers_position,
+                                           const std::vector<Chunk>& changed,
+                                           const std::vector<ChunkKey>& removed) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Transaction tx(*db_);
+  SK_RETURN_IF_ERROR(tx.status());
+  SK_ASSIGN_OR_RETURN(map, GetMapLocked(id));
+  if (covers_position < map.snapshot_position || covers_position > map.last_position) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("map store: map ", id, ": a snapshot covering position ", covers_position,
+                     " is outside [", map.snapshot_position, ", ", map.last_position, "]"));
+  }
+  SK_ASSIGN_OR_RETURN(put, db_->Prepare("INSERT OR REPLACE INTO chunks (map, volume, cx, cy, cz, "
+                                        "bytes) VALUES (?, ?, ?, ?, ?, ?)"));
+  for (const Chunk& c : changed) {
+    put.Reset();
+    SK_RETURN_IF_ERROR(put.BindText(1, id));
+    SK_RETURN_IF_ERROR(put.BindText(2, c.key.volume));
+    SK_RETURN_IF_ERROR(put.BindInt(3, c.key.x));
+    SK_RETURN_IF_ERROR(put.BindInt(4, c.key.y));
+    SK_RETURN_IF_ERROR(put.BindInt(5, c.key.z));
+    SK_RETURN_IF_ERROR(put.BindBlob(6, c.bytes));
+    SK_RETURN_IF_ERROR(put.Run());
+  }
+  SK_ASSIGN_OR_RETURN(del, db_->Prepare("DELETE FROM chunks WHERE map = ? AND volume = ? AND "
+                                        "cx = ? AND cy = ? AND cz = ?"));
+  for (const ChunkKey& k : removed) {
+    del.Reset();
+    SK_RETURN_IF_ERROR(del.BindText(1, id));
+    SK_RETURN_IF_ERROR(del.BindText(2, k.volume));
+    SK_RETURN_IF_ERROR(del.BindInt(3, k.x));
+    SK_RETURN_IF_ERROR(del.BindInt(4, k.y));
+    SK_RETURN_IF_ERROR(del.BindInt(5, k.z));
+    SK_RETURN_IF_ERROR(del.Run());
+  }
+  SK_ASSIGN_OR_RETURN(mark, db_->Prepare("UPDATE maps SET snapshot_position = ?, "
+                                         "snapshot_unix_ms = ? WHERE id = ?"));
+  SK_RETURN_IF_ERROR(mark.BindInt(1, int64_t(covers_position)));
+  SK_RETURN_IF_ERROR(mark.BindInt(2, NowUnixMs()));
+  SK_RETURN_IF_ERROR(mark.BindText(3, id));
+  SK_RETURN_IF_ERROR(mark.Run());
+  return tx.Commit();
+}
+
+absl::StatusOr<uint64_t> SqliteMapStore::ReadSnapshot(
+    const std::string& id, const std::function<absl::Status(const Chunk&)>& fn) {
+  std::lock_guard<std::mutex> lock(mu_);
+  // One read transaction: the chunks and the position come from the same snapshot.
+  SK_RETURN_IF_ERROR(db_->Exec("BEGIN"));
+  auto read = [&]() -> absl::StatusOr<uint64_t> {
+    SK_ASSIGN_OR_RETURN(map, GetMapLocked(id));
+    SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT volume, cx, cy, cz, bytes FROM chunks "
+                                         "WHERE map = ?"));
+    SK_RETURN_IF_ERROR(st.BindText(1, id));
+    while (true) {
+      SK_ASSIGN_OR_RETURN(row, st.Step());
+      if (!row) return map.snapshot_position;
+      Chunk c{{st.ColumnText(0), st.ColumnInt(1), st.ColumnInt(2), st.ColumnInt(3)},
+              st.ColumnBlob(4)};
+      SK_RETURN_IF_ERROR(fn(c));
+    }
+  };
+  absl::StatusOr<uint64_t> result = read();
+  absl::Status end = db_->Exec("COMMIT");
+  if (result.ok() && !end.ok()) return end;
+  return result;
+}
+
+}  // namespace skimap::storage
