@@ -38,6 +38,8 @@ for _ in $(seq 50); do
   sleep 0.2
 done
 
+# Maps persist in the data dir: start the demo map afresh.
+"${cli[@]}" maps rm demo >/dev/null 2>&1 || true
 "${cli[@]}" stream "$dataset" --map=demo --resolution=0.02
 "${cli[@]}" maps ls
 "${cli[@]}" grid --map=demo -o out/demo_grid.yaml

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "server/listen_address.h"
+#include "storage/sqlite_map_store.h"
 
 namespace skimap::server {
 
@@ -22,8 +23,19 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<GrpcServer> s(new GrpcServer());
   MapService::Options service = options.service;
+  if (!options.maps_db_path.empty()) {
+    absl::StatusOr<std::unique_ptr<storage::SqliteMapStore>> store =
+        storage::SqliteMapStore::Open(options.maps_db_path);
+    if (!store.ok()) {
+      return absl::Status(store.status().code(),
+                          absl::StrCat(options.maps_db_path, ": ", store.status().message()));
+    }
+    s->store_ = *std::move(store);
+    service.store = s->store_.get();
+  }
   service.max_reply_bytes = std::min<size_t>(service.max_reply_bytes, options.max_message_bytes);
   s->core_ = std::make_unique<MapService>(service);
+  if (absl::Status recovered = s->core_->Recover(); !recovered.ok()) return recovered;
   s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
   absl::StatusOr<std::unique_ptr<ObjectService>> objects = ObjectService::Create(options.objects);
   if (!objects.ok()) return objects.status();

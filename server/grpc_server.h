@@ -21,6 +21,7 @@
 #include "server/map_service.h"
 #include "server/object_grpc_service.h"
 #include "server/object_service.h"
+#include "storage/map_store.h"
 
 namespace skimap::server {
 
@@ -33,6 +34,10 @@ class GrpcServer {
     // reach the port can read and write every map.
     bool insecure = false;
     MapService::Options service;
+    // SQLite file where maps persist (skimapd: DATA_DIR/maps.sqlite): every frame and pose
+    // update is journaled before its ack and the maps are reloaded at start. "" keeps maps
+    // in memory only.
+    std::string maps_db_path;
     GrpcMapService::Options grpc;
     // The object service; objects.db_path "" keeps its database in memory only.
     ObjectService::Options objects;
@@ -60,6 +65,7 @@ class GrpcServer {
  private:
   GrpcServer() = default;
 
+  std::unique_ptr<storage::MapStore> store_;  // before core_: outlives it
   std::unique_ptr<MapService> core_;
   std::unique_ptr<GrpcMapService> grpc_service_;
   std::unique_ptr<ObjectService> objects_;

@@ -1,7 +1,9 @@
 #include "server/live_map.h"
 
 #include <chrono>
+#include <future>
 #include <random>
+#include <thread>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -59,7 +61,42 @@ void LiveMap::SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> re
   }
 }
 
-absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame) {
+absl::Status LiveMap::Journal(storage::JournalRecord::Kind kind,
+                              const google::protobuf::Message& m) {
+  if (options_.store == nullptr) return absl::OkStatus();
+  absl::StatusOr<uint64_t> position =
+      options_.store->AppendJournal(id_, {{kind, m.SerializeAsString()}});
+  if (position.ok()) return absl::OkStatus();
+  return absl::Status(position.status().code(),
+                      absl::StrCat("journal: ", MapName(id_), ": ", position.status().message(),
+                                   " (not applied, not acknowledged)"));
+}
+
+absl::Status LiveMap::Replay(const storage::JournalRecord& record) {
+  std::promise<absl::Status> done;
+  std::function<void()> task;
+  if (record.kind == storage::JournalRecord::kFrame) {
+    auto frame = std::make_shared<v1::Frame>();
+    if (!frame->ParseFromString(record.payload)) {
+      return absl::DataLossError(
+          absl::StrCat("journal: ", MapName(id_), ": record ", record.position, " is not a Frame"));
+    }
+    task = [&, frame] { done.set_value(IntegrateOnWorker(frame, false).status()); };
+  } else {
+    auto request = std::make_shared<v1::UpdatePosesRequest>();
+    if (!request->ParseFromString(record.payload)) {
+      return absl::DataLossError(absl::StrCat("journal: ", MapName(id_), ": record ",
+                                              record.position, " is not an UpdatePosesRequest"));
+    }
+    task = [&, request] { done.set_value(UpdatePosesOnWorker(*request, false).status()); };
+  }
+  // The queue may be full of other replayed writes only if callers raced; retry briefly.
+  while (!queue_.TrySubmit(task)) std::this_thread::yield();
+  return done.get_future().get();
+}
+
+absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
+                                                        bool journal) {
   if (deleted_.load(std::memory_order_acquire)) return MapGone();
   const Clock::time_point start = Clock::now();
   if (sequences_.contains(frame->sequence())) {
@@ -70,6 +107,10 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   if (!decoded.ok()) return decoded.status();
   if (absl::Status s = ValidatePoseInMap(decoded->pose, options_.config, "pose"); !s.ok()) {
     return s;
+  }
+  // Durable before it changes the map or is acknowledged.
+  if (journal) {
+    if (absl::Status s = Journal(storage::JournalRecord::kFrame, *frame); !s.ok()) return s;
   }
   const perception::IntegrationStats stats = StageFrame(*decoded, FrameStage::kAdd);
   const WriteStats written = ApplyStages(1);
@@ -124,7 +165,7 @@ void LiveMap::KeepFrame(uint64_t sequence, KeptFrame kept) {
 }
 
 absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
-    const v1::UpdatePosesRequest& request) {
+    const v1::UpdatePosesRequest& request, bool journal) {
   if (deleted_.load(std::memory_order_acquire)) return MapGone();
   const Clock::time_point start = Clock::now();
   // Validate everything first: all or nothing.
@@ -154,6 +195,11 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
       return s;
     }
     poses.push_back(*pose);
+  }
+  if (journal) {
+    if (absl::Status s = Journal(storage::JournalRecord::kPoseUpdate, request); !s.ok()) {
+      return s;
+    }
   }
   // Every frame leaves with its old pose and comes back with the new one: staged outside
   // the lock (merged per voxel in each stage) ...

@@ -39,6 +39,7 @@
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
 #include "skimap/v1/maps.pb.h"
+#include "storage/map_store.h"
 
 namespace skimap::server {
 
@@ -49,6 +50,9 @@ class LiveMap {
     ThreadPool* pool = nullptr;                     // threads for batch integration (not owned)
     size_t queue_capacity = 64;                     // queued writes before ResourceExhausted
     size_t max_kept_frame_bytes = size_t{1} << 30;  // oldest frames are dropped beyond
+    // Journal: every accepted frame and pose update is appended (durably) here before it
+    // is applied and acknowledged. Null: the map lives in memory only. Not owned.
+    storage::MapStore* store = nullptr;
   };
   using FrameDone = std::function<void(absl::StatusOr<v1::FrameAck>)>;
   using PosesDone = std::function<void(absl::StatusOr<v1::UpdatePosesResponse>)>;
@@ -82,6 +86,11 @@ class LiveMap {
   // Counters from one snapshot.
   v1::MapStats Stats() const;
 
+  // Re-applies one journal record (a frame or a pose update as it was accepted) without
+  // journaling it again; blocks until the worker has applied it. For recovery at start,
+  // before the map serves. DataLoss if the record does not parse.
+  absl::Status Replay(const storage::JournalRecord& record);
+
   // Makes queued and future writes answer NotFound (the map left the registry).
   void MarkDeleted() { deleted_.store(true, std::memory_order_release); }
 
@@ -92,9 +101,14 @@ class LiveMap {
   };
 
   // Worker thread only.
-  absl::StatusOr<v1::FrameAck> IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame);
-  absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(
-      const v1::UpdatePosesRequest& request);
+  // `journal`: append the write to the store first (false when replaying the journal).
+  absl::StatusOr<v1::FrameAck> IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
+                                                 bool journal = true);
+  absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(const v1::UpdatePosesRequest& request,
+                                                              bool journal = true);
+  // Appends one record to the store (OK without a store). The store's error otherwise,
+  // prefixed "journal: ": the write must then not be applied or acknowledged.
+  absl::Status Journal(storage::JournalRecord::Kind kind, const google::protobuf::Message& m);
   void KeepFrame(uint64_t sequence, KeptFrame kept);
   // Stages `frame` (with frame.pose) in every stage; the first stage's counts.
   perception::IntegrationStats StageFrame(const perception::RgbdFrame& frame,

@@ -1,6 +1,7 @@
 // MapService: maps and frames. Queries are in map_service_queries.cc.
 #include "server/map_service.h"
 
+#include <cstdio>
 #include <utility>
 
 #include "absl/strings/numbers.h"
@@ -23,6 +24,7 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
   r.map_defaults.pool = pool;
   r.map_defaults.queue_capacity = o.queue_capacity;
   r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
+  r.map_defaults.store = o.store;
   r.max_maps = o.max_maps;
   return r;
 }
@@ -43,12 +45,66 @@ absl::StatusOr<std::shared_ptr<LiveMap>> MapService::FindMap(const std::string& 
   return registry_.Get(*id);
 }
 
+absl::Status MapService::Recover() {
+  if (options_.store == nullptr) return absl::OkStatus();
+  absl::StatusOr<std::vector<storage::StoredMap>> stored = options_.store->ListMaps();
+  if (!stored.ok()) return stored.status();
+  for (const storage::StoredMap& m : *stored) {
+    auto skip = [&](const absl::Status& why) {
+      std::fprintf(stderr, "skimapd: map %s not loaded: %s\n", MapName(m.id).c_str(),
+                   why.ToString().c_str());
+    };
+    v1::MapOptions proto;
+    if (!proto.ParseFromString(m.options)) {
+      skip(absl::DataLossError("stored options do not parse"));
+      continue;
+    }
+    absl::StatusOr<MapConfig> config = ResolveMapOptions(proto);
+    if (!config.ok()) {
+      skip(config.status());
+      continue;
+    }
+    absl::StatusOr<std::shared_ptr<LiveMap>> map = registry_.Create(m.id, *config);
+    if (!map.ok()) {
+      skip(map.status());
+      continue;
+    }
+    // A record that no longer applies (refused by today's validation) is reported and
+    // skipped; replay goes on.
+    absl::Status replayed =
+        options_.store->ReadJournal(m.id, 0, [&](const storage::JournalRecord& r) {
+          absl::Status s = (*map)->Replay(r);
+          if (!s.ok() && absl::IsDataLoss(s)) return s;
+          if (!s.ok()) {
+            std::fprintf(stderr, "skimapd: map %s: journal record %llu skipped: %s\n",
+                         MapName(m.id).c_str(), static_cast<unsigned long long>(r.position),
+                         s.ToString().c_str());
+          }
+          return absl::OkStatus();
+        });
+    if (!replayed.ok()) {
+      (void)registry_.Delete(m.id);
+      skip(replayed);
+    }
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& request) {
   if (absl::Status s = ValidateMapId(request.map_id(), "map_id"); !s.ok()) return s;
   absl::StatusOr<MapConfig> config = ResolveMapOptions(request.options());
   if (!config.ok()) return config.status();
   absl::StatusOr<std::shared_ptr<LiveMap>> map = registry_.Create(request.map_id(), *config);
   if (!map.ok()) return map.status();
+  if (options_.store != nullptr) {
+    absl::Status stored =
+        options_.store->CreateMap(request.map_id(), ToProto(*config).SerializeAsString());
+    if (!stored.ok()) {
+      (void)registry_.Delete(request.map_id());
+      return absl::Status(stored.code(), absl::StrCat("map ", MapName(request.map_id()),
+                                                      " not created: ", stored.message()));
+    }
+  }
   return Describe(**map);
 }
 
@@ -82,7 +138,17 @@ absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
 absl::Status MapService::DeleteMap(const v1::DeleteMapRequest& request) {
   absl::StatusOr<std::string> id = ParseMapName(request.name(), "name");
   if (!id.ok()) return id.status();
-  return registry_.Delete(*id);
+  if (absl::Status s = registry_.Delete(*id); !s.ok()) return s;
+  if (options_.store != nullptr) {
+    absl::Status s = options_.store->DeleteMap(*id);
+    if (!s.ok() && !absl::IsNotFound(s)) {
+      return absl::Status(s.code(), absl::StrCat("map ", MapName(*id),
+                                                 ": removed from memory, its data on disk not "
+                                                 "deleted: ",
+                                                 s.message()));
+    }
+  }
+  return absl::OkStatus();
 }
 
 void MapService::IntegrateFrame(std::shared_ptr<const v1::Frame> frame, LiveMap::FrameDone done) {

@@ -19,6 +19,7 @@
 #include "skimap/v1/frames.pb.h"
 #include "skimap/v1/maps.pb.h"
 #include "skimap/v1/queries.pb.h"
+#include "storage/map_store.h"
 
 namespace skimap::server {
 
@@ -33,9 +34,16 @@ class MapService {
     // Largest reply (the transport's message limit): grids and height maps that would not
     // fit are refused with ResourceExhausted before they are computed.
     size_t max_reply_bytes = 80 << 20;
+    // Where maps persist (not owned; outlives the service). Null: in memory only.
+    storage::MapStore* store = nullptr;
   };
   explicit MapService(const Options& options);
   ~MapService();
+
+  // Loads every map of options.store: creates it with its stored options and replays its
+  // journal. A map that cannot be loaded is reported on stderr and skipped; the others
+  // load. REQUIRES: called once, before the service takes requests.
+  absl::Status Recover();
 
   absl::StatusOr<v1::Map> CreateMap(const v1::CreateMapRequest& request);
   absl::StatusOr<v1::Map> GetMap(const v1::GetMapRequest& request) const;

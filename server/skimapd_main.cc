@@ -29,8 +29,8 @@ ABSL_FLAG(bool, insecure, false,
 ABSL_FLAG(std::string, dataset_root, "",
           "directory under which TrainObjectFromDataset may read datasets; empty: off");
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
-          "directory for server data (created if missing): objects.sqlite holds the object "
-          "database; maps live in memory for now");
+          "directory for server data (created if missing): maps.sqlite holds every map (frame "
+          "journal, reloaded at start), objects.sqlite the object database");
 ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
@@ -71,6 +71,7 @@ int main(int argc, char** argv) {
   options.service.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);
   options.grpc.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
   options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
+  options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();
   options.objects.threads = std::max(1, absl::GetFlag(FLAGS_worker_threads));
   absl::StatusOr<std::unique_ptr<skimap::server::GrpcServer>> server =
       skimap::server::GrpcServer::Start(options);
