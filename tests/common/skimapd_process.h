@@ -44,18 +44,20 @@ class SkimapdProcess {
   SkimapdProcess(const SkimapdProcess&) = delete;
   SkimapdProcess& operator=(const SkimapdProcess&) = delete;
 
-  // Forks skimapd on 127.0.0.1:<free port> with a fresh data dir and waits until it
-  // accepts calls (Unavailable after 20 s).
+  // Forks skimapd on 127.0.0.1:<free port> with a fresh data dir (the same one again after
+  // CrashAndRestart) and waits until it accepts calls (Unavailable after 20 s).
   absl::Status Start() { return StartOn("127.0.0.1"); }
   // Like Start, listening on `host` (clients still connect through 127.0.0.1).
   absl::Status StartOn(const std::string& host) {
     const int port = FreePort();
     address_ = absl::StrCat("127.0.0.1:", port);
     const std::string listen = absl::StrCat(host, ":", port);
-    data_dir_ = (std::filesystem::temp_directory_path() /
-                 absl::StrCat("skimapd_test_", getpid(), "_", ++count_))
-                    .string();
-    std::filesystem::create_directories(data_dir_);
+    if (data_dir_.empty()) {
+      data_dir_ = (std::filesystem::temp_directory_path() /
+                   absl::StrCat("skimapd_test_", getpid(), "_", ++count_))
+                      .string();
+      std::filesystem::create_directories(data_dir_);
+    }
     std::vector<std::string> args = {binary_, "--address=" + listen,
                                      "--data_dir=" + data_dir_ + "/data"};
     args.insert(args.end(), flags_.begin(), flags_.end());
@@ -78,6 +80,16 @@ class SkimapdProcess {
     if (waitpid(pid_, &status, WNOHANG) == 0) return true;
     pid_ = -1;
     return false;
+  }
+
+  // kill -9 (no chance to flush anything), then Start() again on the same data dir.
+  absl::Status CrashAndRestart() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+      pid_ = -1;
+    }
+    return Start();
   }
 
   // SIGTERM, then the exit code (-1 if it died of a signal).

@@ -26,6 +26,8 @@ struct Backend {
   std::function<absl::StatusOr<std::unique_ptr<MapStore>>(const std::string& dir)> open;
 };
 
+void PrintTo(const Backend& b, std::ostream* os) { *os << b.name; }
+
 std::vector<Backend> Backends() {
   return {{"sqlite", [](const std::string& dir) -> absl::StatusOr<std::unique_ptr<MapStore>> {
              absl::StatusOr<std::unique_ptr<SqliteMapStore>> s =
