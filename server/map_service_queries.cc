@@ -37,15 +37,20 @@ absl::StatusOr<float> MinWeight(bool present, float value, const MapConfig& conf
   return value;
 }
 
-// Refuses, before anything is computed, a raster whose reply would not fit in
-// `max_reply_bytes` (the transport's message limit).
-absl::Status CheckRasterFits(const RasterGeometry& g, size_t bytes_per_cell, size_t max_reply_bytes,
+// Refuses, before anything is computed, a raster of `region` (the map's footprint when
+// absent) whose reply would not fit in `max_reply_bytes` (the transport's message limit).
+absl::Status CheckRasterFits(const Volume& volume, const std::optional<Region2D>& region,
+                             size_t bytes_per_cell, size_t max_reply_bytes,
                              absl::string_view what) {
-  const uint64_t cells = uint64_t(g.width) * uint64_t(g.height);
+  absl::StatusOr<RasterGeometry> g =
+      MakeRasterGeometry(volume.grid(), region, region ? std::nullopt : volume.FootprintBounds());
+  if (!g.ok())
+    return absl::Status(g.status().code(), absl::StrCat("region: ", g.status().message()));
+  const uint64_t cells = uint64_t(g->width) * uint64_t(g->height);
   constexpr size_t kEnvelopeBytes = 1024;  // the reply's other fields
   if (cells * bytes_per_cell + kEnvelopeBytes <= max_reply_bytes) return absl::OkStatus();
   return absl::ResourceExhaustedError(
-      absl::StrCat("region: the ", what, " would be ", g.width, " x ", g.height, " cells (",
+      absl::StrCat("region: the ", what, " would be ", g->width, " x ", g->height, " cells (",
                    cells * bytes_per_cell, " bytes), above the reply limit of ", max_reply_bytes,
                    " bytes (max_reply_bytes); ask for a smaller region"));
 }
@@ -138,10 +143,8 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   v1::OccupancyGrid out;
   absl::Status status = (*map)->Read([&](const MapState& state) {
     const Volume& volume = state.rgb;
-    absl::StatusOr<RasterGeometry> geometry = MakeRasterGeometry(
-        volume.grid(), o.region, o.region ? std::nullopt : volume.FootprintBounds());
-    if (!geometry.ok()) return PrefixField(geometry.status(), "region");
-    if (absl::Status s = CheckRasterFits(*geometry, 1, options_.max_reply_bytes, "occupancy grid");
+    if (absl::Status s =
+            CheckRasterFits(volume, o.region, 1, options_.max_reply_bytes, "occupancy grid");
         !s.ok()) {
       return s;
     }
@@ -172,11 +175,9 @@ absl::StatusOr<v1::HeightMap> MapService::GetHeightMap(
   v1::HeightMap out;
   absl::Status status = (*map)->Read([&](const MapState& state) {
     const Volume& volume = state.rgb;
-    absl::StatusOr<RasterGeometry> geometry = MakeRasterGeometry(
-        volume.grid(), o.region, o.region ? std::nullopt : volume.FootprintBounds());
-    if (!geometry.ok()) return PrefixField(geometry.status(), "region");
     // Packed repeated float: 4 bytes a cell.
-    if (absl::Status s = CheckRasterFits(*geometry, 4, options_.max_reply_bytes, "height map");
+    if (absl::Status s =
+            CheckRasterFits(volume, o.region, 4, options_.max_reply_bytes, "height map");
         !s.ok()) {
       return s;
     }

@@ -4,22 +4,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "storage/schema.h"
+#include "storage/status_macros.h"
 
 namespace skimap::storage {
-namespace {
-
-#define SK_RETURN_IF_ERROR(expr) \
-  do {                           \
-    absl::Status _s = (expr);    \
-    if (!_s.ok()) return _s;     \
-  } while (0)
-
-#define SK_ASSIGN_OR_RETURN(lhs, expr)          \
-  auto lhs##_or = (expr);                       \
-  if (!lhs##_or.ok()) return lhs##_or.status(); \
-  auto& lhs = *lhs##_or
-
-}  // namespace
 
 absl::StatusOr<std::unique_ptr<ObjectStore>> ObjectStore::Open(const std::string& path) {
   absl::StatusOr<std::unique_ptr<Database>> db = Database::Open(path);

@@ -4,20 +4,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "storage/migrations.h"
+#include "storage/status_macros.h"
 
 namespace skimap::storage {
 namespace {
-
-#define SK_RETURN_IF_ERROR(expr) \
-  do {                           \
-    absl::Status _s = (expr);    \
-    if (!_s.ok()) return _s;     \
-  } while (0)
-
-#define SK_ASSIGN_OR_RETURN(lhs, expr)          \
-  auto lhs##_or = (expr);                       \
-  if (!lhs##_or.ok()) return lhs##_or.status(); \
-  auto& lhs = *lhs##_or
 
 // Version 1 of maps.sqlite. Journal payloads and chunks are large blobs: ordinary rowid
 // tables with a unique key, not WITHOUT ROWID (SQLite's advice for rows over ~1/20 page).
