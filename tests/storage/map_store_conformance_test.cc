@@ -192,8 +192,10 @@ TEST_P(MapStoreConformanceTest, AFailedWriteChangesNothingAndWritesSucceedAfterI
       switch (i) {
         case 0:
           return faulty.CreateMap("m", "");
-        case 4:
-          return faulty.WriteSnapshot("m", 1, {{{"rgb", 0, 0, 0}, "A"}}, {});
+        case 4: {
+          const std::vector<Chunk> chunks = {Chunk{ChunkKey{"rgb", 0, 0, 0}, "A"}};
+          return faulty.WriteSnapshot("m", 1, chunks, {});
+        }
         default: {
           absl::StatusOr<uint64_t> p =
               faulty.AppendJournal("m", {{JournalRecord::kFrame, absl::StrCat("f", i)}});
