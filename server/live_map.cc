@@ -66,13 +66,17 @@ absl::Status LiveMap::Journal(storage::JournalRecord::Kind kind,
   if (options_.store == nullptr) return absl::OkStatus();
   absl::StatusOr<uint64_t> position =
       options_.store->AppendJournal(id_, {{kind, m.SerializeAsString()}});
-  if (position.ok()) return absl::OkStatus();
+  if (position.ok()) {
+    journal_position_.store(*position, std::memory_order_release);
+    return absl::OkStatus();
+  }
   return absl::Status(position.status().code(),
                       absl::StrCat("journal: ", MapName(id_), ": ", position.status().message(),
                                    " (not applied, not acknowledged)"));
 }
 
 absl::Status LiveMap::Replay(const storage::JournalRecord& record) {
+  journal_position_.store(record.position, std::memory_order_release);
   std::promise<absl::Status> done;
   std::function<void()> task;
   if (record.kind == storage::JournalRecord::kFrame) {
@@ -236,6 +240,8 @@ v1::MapStats LiveMap::Stats() const {
   stats.set_frames(state_.frames);
   stats.set_kept_frame_bytes(kept_bytes_);
   stats.set_free_voxels(state_.free.size());
+  stats.set_journal_position(journal_position_.load(std::memory_order_acquire));
+  stats.set_persistent(options_.store != nullptr);
   if (std::optional<KeyBox> box = state_.rgb.Bounds()) {
     const Grid& g = state_.rgb.grid();
     const double r = g.resolution();

@@ -122,6 +122,7 @@ class LiveMap {
   const uint64_t incarnation_;
   const Options options_;
   std::atomic<bool> deleted_{false};
+  std::atomic<uint64_t> journal_position_{0};  // last record durable in the store
 
   mutable RwLock snapshot_mu_;
   MapState state_ ABSL_GUARDED_BY(snapshot_mu_);

@@ -64,12 +64,15 @@ TEST(RestartTest, AcknowledgedFramesAndPoseUpdatesSurviveKillNine) {
   const VoxelSet before = Voxels(*client, "maps/kept");
   const v1::Map info = *client->GetMap("maps/kept");
   ASSERT_GT(before.size(), 500u);
+  EXPECT_TRUE(info.stats().persistent());
+  EXPECT_EQ(info.stats().journal_position(), 7u);  // 6 frames and one pose update
 
   ASSERT_TRUE(server.CrashAndRestart().ok());
   client = client::MapClient::Connect(server.address());
   EXPECT_EQ(Voxels(*client, "maps/kept"), before);
   const v1::Map after = *client->GetMap("maps/kept");
   EXPECT_EQ(after.stats().frames(), 6u);
+  EXPECT_EQ(after.stats().journal_position(), 7u);
   EXPECT_EQ(after.stats().free_voxels(), info.stats().free_voxels());
   EXPECT_DOUBLE_EQ(after.options().resolution(), 0.04);
   EXPECT_EQ(client->GetMap("maps/dropped").status().code(), absl::StatusCode::kNotFound);
