@@ -37,26 +37,27 @@ absl::StatusOr<float> MinWeight(bool present, float value, const MapConfig& conf
   return value;
 }
 
-// Refuses, before anything is computed, a raster of `region` (the map's footprint when
-// absent) whose reply would not fit in `max_reply_bytes` (the transport's message limit).
-absl::Status CheckRasterFits(const Volume& volume, const std::optional<Region2D>& region,
-                             size_t bytes_per_cell, size_t max_reply_bytes,
-                             absl::string_view what) {
-  absl::StatusOr<RasterGeometry> g =
-      MakeRasterGeometry(volume.grid(), region, region ? std::nullopt : volume.FootprintBounds());
-  if (!g.ok())
-    return absl::Status(g.status().code(), absl::StrCat("region: ", g.status().message()));
-  const uint64_t cells = uint64_t(g->width) * uint64_t(g->height);
-  constexpr size_t kEnvelopeBytes = 1024;  // the reply's other fields
-  if (cells * bytes_per_cell + kEnvelopeBytes <= max_reply_bytes) return absl::OkStatus();
-  return absl::ResourceExhaustedError(
-      absl::StrCat("region: the ", what, " would be ", g->width, " x ", g->height, " cells (",
-                   cells * bytes_per_cell, " bytes), above the reply limit of ", max_reply_bytes,
-                   " bytes (max_reply_bytes); ask for a smaller region"));
+// Rasters whose reply would not fit in `max_reply_bytes` (the transport's message limit)
+// are refused by the raster query itself, from the region and resolution, before anything
+// is built: the largest raster of `bytes_per_cell` that fits.
+constexpr size_t kReplyEnvelopeBytes = 1024;  // the reply's other fields
+int64_t MaxReplyCells(size_t max_reply_bytes, size_t bytes_per_cell) {
+  return int64_t(max_reply_bytes > kReplyEnvelopeBytes ? max_reply_bytes - kReplyEnvelopeBytes
+                                                       : 0) /
+         int64_t(bytes_per_cell);
 }
 
 absl::Status PrefixField(const absl::Status& s, absl::string_view field) {
   return absl::Status(s.code(), absl::StrCat(field, ": ", s.message()));
+}
+
+// The raster query's status; a refused size also names the reply limit it derives from
+// (the core's message starts with "region: W x H cells exceeds the limit of N cells").
+absl::Status RasterStatus(const absl::Status& s, absl::string_view what, size_t max_reply_bytes) {
+  if (!absl::IsResourceExhausted(s)) return PrefixField(s, "region");
+  return absl::ResourceExhaustedError(absl::StrCat(
+      s.message(), " (the largest ", what, " that fits in the reply limit of ", max_reply_bytes,
+      " bytes, max_reply_bytes, or 2^28 cells); ask for a smaller region"));
 }
 
 void FillVoxel(const Grid& grid, const VoxelKey& k, const RGBWeightedVoxel& v, v1::Voxel* out) {
@@ -132,6 +133,7 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
       MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), c);
   if (!min_weight.ok()) return min_weight.status();
   o.min_weight = *min_weight;
+  o.max_cells = MaxReplyCells(options_.max_reply_bytes, 1);  // one byte a cell
   if (!std::isfinite(o.band_min_z) || !std::isfinite(o.band_max_z) ||
       !std::isfinite(o.floor_min_z) || !(o.floor_min_z <= o.band_min_z) ||
       !(o.band_min_z <= o.band_max_z)) {
@@ -142,14 +144,8 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   constexpr float kMinFreeFrames = 1;
   v1::OccupancyGrid out;
   absl::Status status = (*map)->Read([&](const MapState& state) {
-    const Volume& volume = state.rgb;
-    if (absl::Status s =
-            CheckRasterFits(volume, o.region, 1, options_.max_reply_bytes, "occupancy grid");
-        !s.ok()) {
-      return s;
-    }
-    absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(volume, o);
-    if (!grid.ok()) return PrefixField(grid.status(), "region");
+    absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(state.rgb, o);
+    if (!grid.ok()) return RasterStatus(grid.status(), "occupancy grid", options_.max_reply_bytes);
     MarkCarvedCells(state.free, kMinFreeFrames, &*grid);
     FillGeometry(grid->geometry, state.frames, &out);
     out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
@@ -172,17 +168,11 @@ absl::StatusOr<v1::HeightMap> MapService::GetHeightMap(
       MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), (*map)->config());
   if (!min_weight.ok()) return min_weight.status();
   o.min_weight = *min_weight;
+  o.max_cells = MaxReplyCells(options_.max_reply_bytes, 4);  // packed float: 4 bytes a cell
   v1::HeightMap out;
   absl::Status status = (*map)->Read([&](const MapState& state) {
-    const Volume& volume = state.rgb;
-    // Packed repeated float: 4 bytes a cell.
-    if (absl::Status s =
-            CheckRasterFits(volume, o.region, 4, options_.max_reply_bytes, "height map");
-        !s.ok()) {
-      return s;
-    }
-    absl::StatusOr<HeightMap> hm = ComputeHeightMap(volume, o);
-    if (!hm.ok()) return PrefixField(hm.status(), "region");
+    absl::StatusOr<HeightMap> hm = ComputeHeightMap(state.rgb, o);
+    if (!hm.ok()) return RasterStatus(hm.status(), "height map", options_.max_reply_bytes);
     FillGeometry(hm->geometry, state.frames, &out);
     out.mutable_heights()->Assign(hm->heights.begin(), hm->heights.end());
     return absl::OkStatus();

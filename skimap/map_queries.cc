@@ -1,10 +1,13 @@
 #include "skimap/map_queries.h"
 
+#include <algorithm>
+
 namespace skimap {
 
 absl::StatusOr<RasterGeometry> MakeRasterGeometry(const Grid& grid,
                                                   const std::optional<Region2D>& region,
-                                                  const std::optional<KeyBox>& bounds) {
+                                                  const std::optional<KeyBox>& bounds,
+                                                  int64_t max_cells) {
   RasterGeometry g;
   g.resolution = grid.resolution();
   int32_t x0, x1, y0, y1;
@@ -28,9 +31,10 @@ absl::StatusOr<RasterGeometry> MakeRasterGeometry(const Grid& grid,
     return g;  // empty map: 0 x 0
   }
   const int64_t w = int64_t{x1} - x0 + 1, h = int64_t{y1} - y0 + 1;
-  if (w * h > kMaxRasterCells) {
+  const int64_t limit = std::min(max_cells, kMaxRasterCells);
+  if (w * h > limit) {
     return absl::ResourceExhaustedError(
-        absl::StrCat("region: ", w, " x ", h, " cells exceeds the limit of ", kMaxRasterCells));
+        absl::StrCat("region: ", w, " x ", h, " cells exceeds the limit of ", limit, " cells"));
   }
   g.width = static_cast<int32_t>(w);
   g.height = static_cast<int32_t>(h);

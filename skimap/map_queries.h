@@ -45,9 +45,10 @@ struct HeightMap {
 };
 
 struct HeightMapOptions {
-  std::optional<Region2D> region;  // default: the map's bounds
-  float min_weight = 0;            // voxels with Weight() < min_weight are ignored
-  ThreadPool* pool = nullptr;      // splits the raster's x range over its threads (not owned)
+  std::optional<Region2D> region;       // default: the map's bounds
+  float min_weight = 0;                 // voxels with Weight() < min_weight are ignored
+  ThreadPool* pool = nullptr;           // splits the raster's x range over its threads (not owned)
+  int64_t max_cells = kMaxRasterCells;  // larger rasters: ResourceExhausted, nothing built
 };
 
 struct OccupancyGrid {
@@ -65,15 +66,18 @@ struct OccupancyGridOptions {
   // ... free when nothing is in the band but the floor was seen: a voxel centre in
   // [floor_min_z, band_min_z); unknown otherwise.
   double floor_min_z = -0.3;
-  float min_weight = 0;        // voxels with Weight() < min_weight are ignored
-  ThreadPool* pool = nullptr;  // splits the raster's x range over its threads (not owned)
+  float min_weight = 0;                 // voxels with Weight() < min_weight are ignored
+  ThreadPool* pool = nullptr;           // splits the raster's x range over its threads (not owned)
+  int64_t max_cells = kMaxRasterCells;  // larger rasters: ResourceExhausted, nothing built
 };
 
 // Cell geometry for a region (or the map's bounds). InvalidArgument for a bad region,
-// ResourceExhausted above kMaxRasterCells; an empty map without region gives 0x0.
+// ResourceExhausted above min(max_cells, kMaxRasterCells), decided from the geometry alone
+// before anything is allocated; an empty map without region gives 0x0.
 absl::StatusOr<RasterGeometry> MakeRasterGeometry(const Grid& grid,
                                                   const std::optional<Region2D>& region,
-                                                  const std::optional<KeyBox>& bounds);
+                                                  const std::optional<KeyBox>& bounds,
+                                                  int64_t max_cells = kMaxRasterCells);
 
 namespace internal {
 // fn(kx, ky, ZColumn) for every non-empty column of the raster; with a pool, slabs of x run
@@ -96,8 +100,8 @@ void ForEachRasterColumn(const SkiMap<V>& map, const RasterGeometry& g, ThreadPo
 
 template <Voxel V>
 absl::StatusOr<HeightMap> ComputeHeightMap(const SkiMap<V>& map, const HeightMapOptions& opt) {
-  absl::StatusOr<RasterGeometry> geo =
-      MakeRasterGeometry(map.grid(), opt.region, opt.region ? std::nullopt : map.FootprintBounds());
+  absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
+      map.grid(), opt.region, opt.region ? std::nullopt : map.FootprintBounds(), opt.max_cells);
   if (!geo.ok()) return geo.status();
   HeightMap out{*geo, std::vector<float>(size_t(geo->width) * size_t(geo->height),
                                          std::numeric_limits<float>::quiet_NaN())};
@@ -128,8 +132,8 @@ absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
     return absl::InvalidArgumentError(
         "z band: need floor_min_z <= band_min_z <= band_max_z (all finite)");
   }
-  absl::StatusOr<RasterGeometry> geo =
-      MakeRasterGeometry(map.grid(), opt.region, opt.region ? std::nullopt : map.FootprintBounds());
+  absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
+      map.grid(), opt.region, opt.region ? std::nullopt : map.FootprintBounds(), opt.max_cells);
   if (!geo.ok()) return geo.status();
   OccupancyGrid out{
       *geo, std::vector<int8_t>(size_t(geo->width) * size_t(geo->height), OccupancyGrid::kUnknown)};

@@ -95,6 +95,20 @@ TEST(MapQueriesTest, BadRequestsGetClearErrors) {
   EXPECT_TRUE(g->cells.empty());
 }
 
+TEST(MapQueriesTest, MaxCellsRefusesLargerRastersFromTheGeometryAlone) {
+  SkiMap<WeightVoxel> map({.resolution = 0.1});
+  FillRoom(map);  // its footprint is 18 x 10 cells
+  EXPECT_EQ(ComputeHeightMap(map, {.max_cells = 179}).status().code(),
+            absl::StatusCode::kResourceExhausted);
+  EXPECT_TRUE(ComputeHeightMap(map, {.max_cells = 180}).ok());
+  absl::StatusOr<OccupancyGrid> refused = ComputeOccupancyGrid(map, {.max_cells = 179});
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_NE(refused.status().message().find("18 x 10 cells exceeds the limit of 179 cells"),
+            std::string::npos)
+      << refused.status();
+  EXPECT_TRUE(ComputeOccupancyGrid(map, {.max_cells = 180}).ok());
+}
+
 TEST(MapQueriesTest, PoolGivesTheSameRasters) {
   ThreadPool pool(2);
   SkiMap<WeightVoxel> map({.resolution = 0.02});
