@@ -3,7 +3,6 @@
 #include <chrono>
 #include <future>
 #include <random>
-#include <thread>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -40,8 +39,8 @@ absl::Status LiveMap::MapGone() const {
 void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done) {
   if (deleted_.load(std::memory_order_acquire)) return done(MapGone());
   auto shared_done = std::make_shared<FrameDone>(std::move(done));
-  const bool queued =
-      queue_.TrySubmit([this, frame, shared_done] { (*shared_done)(IntegrateOnWorker(frame)); });
+  const bool queued = queue_.TrySubmit(
+      [this, frame, shared_done] { (*shared_done)(IntegrateOnWorker(frame, Source::kAppend)); });
   if (!queued) {
     (*shared_done)(absl::ResourceExhaustedError(
         absl::StrCat("map ", MapName(id_), ": write queue full (", options_.queue_capacity,
@@ -53,8 +52,9 @@ void LiveMap::SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> re
                                 PosesDone done) {
   if (deleted_.load(std::memory_order_acquire)) return done(MapGone());
   auto shared_done = std::make_shared<PosesDone>(std::move(done));
-  const bool queued = queue_.TrySubmit(
-      [this, request, shared_done] { (*shared_done)(UpdatePosesOnWorker(*request)); });
+  const bool queued = queue_.TrySubmit([this, request, shared_done] {
+    (*shared_done)(UpdatePosesOnWorker(*request, Source::kAppend));
+  });
   if (!queued) {
     (*shared_done)(absl::ResourceExhaustedError(
         absl::StrCat("map ", MapName(id_), ": write queue full; retry later")));
@@ -85,22 +85,26 @@ absl::Status LiveMap::Replay(const storage::JournalRecord& record) {
       return absl::DataLossError(
           absl::StrCat("journal: ", MapName(id_), ": record ", record.position, " is not a Frame"));
     }
-    task = [&, frame] { done.set_value(IntegrateOnWorker(frame, false).status()); };
+    task = [&, frame] { done.set_value(IntegrateOnWorker(frame, Source::kReplay).status()); };
   } else {
     auto request = std::make_shared<v1::UpdatePosesRequest>();
     if (!request->ParseFromString(record.payload)) {
       return absl::DataLossError(absl::StrCat("journal: ", MapName(id_), ": record ",
                                               record.position, " is not an UpdatePosesRequest"));
     }
-    task = [&, request] { done.set_value(UpdatePosesOnWorker(*request, false).status()); };
+    task = [&, request] {
+      done.set_value(UpdatePosesOnWorker(*request, Source::kReplay).status());
+    };
   }
-  // The queue may be full of other replayed writes only if callers raced; retry briefly.
-  while (!queue_.TrySubmit(task)) std::this_thread::yield();
+  // Replay runs before the map serves and waits for each record, so the queue is empty.
+  if (!queue_.TrySubmit(task)) {
+    return absl::InternalError(absl::StrCat("journal: ", MapName(id_), ": replay while serving"));
+  }
   return done.get_future().get();
 }
 
 absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
-                                                        bool journal) {
+                                                        Source source) {
   if (deleted_.load(std::memory_order_acquire)) return MapGone();
   const Clock::time_point start = Clock::now();
   if (sequences_.contains(frame->sequence())) {
@@ -113,7 +117,7 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
     return s;
   }
   // Durable before it changes the map or is acknowledged.
-  if (journal) {
+  if (source == Source::kAppend) {
     if (absl::Status s = Journal(storage::JournalRecord::kFrame, *frame); !s.ok()) return s;
   }
   const perception::IntegrationStats stats = StageFrame(*decoded, FrameStage::kAdd);
@@ -169,7 +173,7 @@ void LiveMap::KeepFrame(uint64_t sequence, KeptFrame kept) {
 }
 
 absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
-    const v1::UpdatePosesRequest& request, bool journal) {
+    const v1::UpdatePosesRequest& request, Source source) {
   if (deleted_.load(std::memory_order_acquire)) return MapGone();
   const Clock::time_point start = Clock::now();
   // Validate everything first: all or nothing.
@@ -200,7 +204,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
     }
     poses.push_back(*pose);
   }
-  if (journal) {
+  if (source == Source::kAppend) {
     if (absl::Status s = Journal(storage::JournalRecord::kPoseUpdate, request); !s.ok()) {
       return s;
     }

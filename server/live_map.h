@@ -100,12 +100,14 @@ class LiveMap {
     perception::CameraPose pose;             // pose it is integrated with now
   };
 
+  // kAppend: a new write, appended to the journal before it is applied; kReplay: a write
+  // read back from the journal.
+  enum class Source { kAppend, kReplay };
   // Worker thread only.
-  // `journal`: append the write to the store first (false when replaying the journal).
   absl::StatusOr<v1::FrameAck> IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
-                                                 bool journal = true);
+                                                 Source source);
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(const v1::UpdatePosesRequest& request,
-                                                              bool journal = true);
+                                                              Source source);
   // Appends one record to the store (OK without a store). The store's error otherwise,
   // prefixed "journal: ": the write must then not be applied or acknowledged.
   absl::Status Journal(storage::JournalRecord::Kind kind, const google::protobuf::Message& m);

@@ -76,6 +76,7 @@ class MapStore {
   virtual absl::StatusOr<uint64_t> AppendJournal(const std::string& id,
                                                  const std::vector<JournalRecord>& records) = 0;
   // Calls fn for every record with position > after, in order; stops at fn's first error.
+  // fn must not call this store (a backend may hold its lock while it reads).
   virtual absl::Status ReadJournal(const std::string& id, uint64_t after,
                                    const std::function<absl::Status(const JournalRecord&)>& fn) = 0;
   // Drops the records with position <= upto (they are covered by a snapshot).
