@@ -40,8 +40,8 @@
 #include "client/map_client.h"
 #include "perception/frame_integrator.h"
 #include "perception/image_codec.h"
-#include "server/frame_decode.h"
-#include "server/grpc_server.h"
+#include "server/grpc/grpc_server.h"
+#include "server/maps/frame_decode.h"
 #include "skimap/skimap.h"
 
 ABSL_FLAG(int, frames, 150, "frames per ingestion run (per stream)");

@@ -19,7 +19,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
-#include "server/grpc_server.h"
+#include "server/grpc/grpc_server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
           "gRPC listen address (host:port); beyond loopback only with --insecure");

@@ -15,7 +15,7 @@
 #include "client/object_client.h"
 #include "client/training_frames.h"
 #include "dataset/reader.h"
-#include "server/grpc_server.h"
+#include "server/grpc/grpc_server.h"
 #include "tests/objects/sim_data.h"
 
 namespace skimap::testing {

@@ -9,7 +9,7 @@
 #include <map>
 #include <set>
 
-#include "server/object_codec.h"
+#include "server/objects/object_codec.h"
 #include "tests/object_service/object_service_fixture.h"
 
 namespace skimap::testing {

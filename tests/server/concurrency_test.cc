@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "server/map_service.h"
+#include "server/maps/map_service.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {

@@ -10,7 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
-#include "server/grpc_server.h"
+#include "server/grpc/grpc_server.h"
 
 namespace skimap::testing {
 

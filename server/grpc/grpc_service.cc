@@ -1,0 +1,128 @@
+#include "server/grpc/grpc_service.h"
+
+#include <memory>
+#include <utility>
+
+#include "server/grpc/frame_stream_reactor.h"
+#include "server/grpc/grpc_status.h"
+
+namespace skimap::server {
+namespace {
+
+using grpc::CallbackServerContext;
+using grpc::ServerUnaryReactor;
+
+// StreamVoxels: one GetVoxels page per write until the last page.
+class VoxelPageWriter final : public grpc::ServerWriteReactor<v1::GetVoxelsResponse> {
+ public:
+  VoxelPageWriter(const MapService* core, const v1::GetVoxelsRequest& request)
+      : core_(core), request_(request) {
+    NextPage();
+  }
+  void OnWriteDone(bool ok) override {
+    if (!ok) return Finish(grpc::Status(grpc::StatusCode::CANCELLED, "client went away"));
+    if (request_.page_token().empty()) return Finish(grpc::Status::OK);
+    NextPage();
+  }
+  void OnDone() override { delete this; }
+
+ private:
+  void NextPage() {
+    absl::StatusOr<v1::GetVoxelsResponse> page = core_->GetVoxels(request_);
+    if (!page.ok()) return Finish(ToGrpcStatus(page.status()));
+    page_ = *std::move(page);
+    request_.set_page_token(page_.next_page_token());
+    StartWrite(&page_);
+  }
+
+  const MapService* const core_;
+  v1::GetVoxelsRequest request_;  // page_token advances
+  v1::GetVoxelsResponse page_;
+};
+
+}  // namespace
+
+ServerUnaryReactor* GrpcMapService::CreateMap(CallbackServerContext* ctx,
+                                              const v1::CreateMapRequest* request,
+                                              v1::Map* response) {
+  return Reply(ctx, core_->CreateMap(*request), response);
+}
+
+ServerUnaryReactor* GrpcMapService::GetMap(CallbackServerContext* ctx,
+                                           const v1::GetMapRequest* request, v1::Map* response) {
+  return Reply(ctx, core_->GetMap(*request), response);
+}
+
+ServerUnaryReactor* GrpcMapService::ListMaps(CallbackServerContext* ctx,
+                                             const v1::ListMapsRequest* request,
+                                             v1::ListMapsResponse* response) {
+  return Reply(ctx, core_->ListMaps(*request), response);
+}
+
+ServerUnaryReactor* GrpcMapService::DeleteMap(CallbackServerContext* ctx,
+                                              const v1::DeleteMapRequest* request,
+                                              v1::DeleteMapResponse* response) {
+  ServerUnaryReactor* reactor = ctx->DefaultReactor();
+  reactor->Finish(ToGrpcStatus(core_->DeleteMap(*request)));
+  return reactor;
+}
+
+grpc::ServerBidiReactor<v1::Frame, v1::FrameAck>* GrpcMapService::StreamFrames(
+    CallbackServerContext* ctx) {
+  return new FrameStreamReactor(core_, options_.max_in_flight);
+}
+
+ServerUnaryReactor* GrpcMapService::IntegrateFrame(CallbackServerContext* ctx,
+                                                   const v1::Frame* request,
+                                                   v1::FrameAck* response) {
+  ServerUnaryReactor* reactor = ctx->DefaultReactor();
+  core_->IntegrateFrame(std::make_shared<v1::Frame>(*request),
+                        [reactor, response](absl::StatusOr<v1::FrameAck> ack) {
+                          if (ack.ok()) *response = *std::move(ack);
+                          reactor->Finish(ToGrpcStatus(ack.status()));
+                        });
+  return reactor;
+}
+
+ServerUnaryReactor* GrpcMapService::UpdatePoses(CallbackServerContext* ctx,
+                                                const v1::UpdatePosesRequest* request,
+                                                v1::UpdatePosesResponse* response) {
+  ServerUnaryReactor* reactor = ctx->DefaultReactor();
+  core_->UpdatePoses(std::make_shared<v1::UpdatePosesRequest>(*request),
+                     [reactor, response](absl::StatusOr<v1::UpdatePosesResponse> r) {
+                       if (r.ok()) *response = *std::move(r);
+                       reactor->Finish(ToGrpcStatus(r.status()));
+                     });
+  return reactor;
+}
+
+ServerUnaryReactor* GrpcMapService::GetOccupancyGrid(CallbackServerContext* ctx,
+                                                     const v1::GetOccupancyGridRequest* request,
+                                                     v1::OccupancyGrid* response) {
+  return Reply(ctx, core_->GetOccupancyGrid(*request), response);
+}
+
+ServerUnaryReactor* GrpcMapService::GetHeightMap(CallbackServerContext* ctx,
+                                                 const v1::GetHeightMapRequest* request,
+                                                 v1::HeightMap* response) {
+  return Reply(ctx, core_->GetHeightMap(*request), response);
+}
+
+ServerUnaryReactor* GrpcMapService::GetVoxels(CallbackServerContext* ctx,
+                                              const v1::GetVoxelsRequest* request,
+                                              v1::GetVoxelsResponse* response) {
+  return Reply(ctx, core_->GetVoxels(*request), response);
+}
+
+grpc::ServerWriteReactor<v1::GetVoxelsResponse>* GrpcMapService::StreamVoxels(
+    CallbackServerContext* ctx, const v1::GetVoxelsRequest* request) {
+  return new VoxelPageWriter(core_, *request);
+}
+
+ServerUnaryReactor* GrpcMapService::RadiusSearch(CallbackServerContext* ctx,
+                                                 const v1::RadiusSearchRequest* request,
+                                                 v1::RadiusSearchResponse* response) {
+  return Reply(ctx, core_->RadiusSearch(*request), response);
+}
+
+}  // namespace skimap::server

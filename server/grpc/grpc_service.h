@@ -1,0 +1,68 @@
+// GrpcMapService: the gRPC adapter of MapService (callback API). Every handler is a few
+// lines: call the core, convert the status once (grpc_status.h), finish.
+//
+// Routes (skimap.v1.MapService): CreateMap, GetMap, ListMaps, DeleteMap, IntegrateFrame,
+// UpdatePoses, GetOccupancyGrid, GetHeightMap, GetVoxels, RadiusSearch (unary);
+// StreamFrames (bidi, FrameStreamReactor); StreamVoxels (server stream of GetVoxels pages).
+//
+// Thread safety: stateless apart from the core pointer; safe for concurrent calls.
+#ifndef SERVER_GRPC_GRPC_SERVICE_H_
+#define SERVER_GRPC_GRPC_SERVICE_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include "server/maps/map_service.h"
+#include "skimap/v1/map_service.grpc.pb.h"
+
+namespace skimap::server {
+
+class GrpcMapService final : public v1::MapService::CallbackService {
+ public:
+  struct Options {
+    int max_in_flight = 8;  // unacknowledged frames per StreamFrames call
+  };
+  // REQUIRES: core outlives this service and every call it started.
+  GrpcMapService(MapService* core, const Options& options) : core_(core), options_(options) {}
+
+  grpc::ServerUnaryReactor* CreateMap(grpc::CallbackServerContext* ctx,
+                                      const v1::CreateMapRequest* request,
+                                      v1::Map* response) override;
+  grpc::ServerUnaryReactor* GetMap(grpc::CallbackServerContext* ctx,
+                                   const v1::GetMapRequest* request, v1::Map* response) override;
+  grpc::ServerUnaryReactor* ListMaps(grpc::CallbackServerContext* ctx,
+                                     const v1::ListMapsRequest* request,
+                                     v1::ListMapsResponse* response) override;
+  grpc::ServerUnaryReactor* DeleteMap(grpc::CallbackServerContext* ctx,
+                                      const v1::DeleteMapRequest* request,
+                                      v1::DeleteMapResponse* response) override;
+  grpc::ServerBidiReactor<v1::Frame, v1::FrameAck>* StreamFrames(
+      grpc::CallbackServerContext* ctx) override;
+  grpc::ServerUnaryReactor* IntegrateFrame(grpc::CallbackServerContext* ctx,
+                                           const v1::Frame* request,
+                                           v1::FrameAck* response) override;
+  grpc::ServerUnaryReactor* UpdatePoses(grpc::CallbackServerContext* ctx,
+                                        const v1::UpdatePosesRequest* request,
+                                        v1::UpdatePosesResponse* response) override;
+  grpc::ServerUnaryReactor* GetOccupancyGrid(grpc::CallbackServerContext* ctx,
+                                             const v1::GetOccupancyGridRequest* request,
+                                             v1::OccupancyGrid* response) override;
+  grpc::ServerUnaryReactor* GetHeightMap(grpc::CallbackServerContext* ctx,
+                                         const v1::GetHeightMapRequest* request,
+                                         v1::HeightMap* response) override;
+  grpc::ServerUnaryReactor* GetVoxels(grpc::CallbackServerContext* ctx,
+                                      const v1::GetVoxelsRequest* request,
+                                      v1::GetVoxelsResponse* response) override;
+  grpc::ServerWriteReactor<v1::GetVoxelsResponse>* StreamVoxels(
+      grpc::CallbackServerContext* ctx, const v1::GetVoxelsRequest* request) override;
+  grpc::ServerUnaryReactor* RadiusSearch(grpc::CallbackServerContext* ctx,
+                                         const v1::RadiusSearchRequest* request,
+                                         v1::RadiusSearchResponse* response) override;
+
+ private:
+  MapService* const core_;
+  const Options options_;
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_GRPC_GRPC_SERVICE_H_

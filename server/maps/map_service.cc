@@ -1,0 +1,172 @@
+// MapService: maps and frames. Queries are in map_service_queries.cc.
+#include "server/maps/map_service.h"
+
+#include <cstdio>
+#include <utility>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "server/page_token.h"
+
+namespace skimap::server {
+namespace {
+
+v1::Map Describe(const LiveMap& map) {
+  v1::Map out;
+  out.set_name(MapName(map.id()));
+  *out.mutable_options() = ToProto(map.config());
+  *out.mutable_stats() = map.Stats();
+  return out;
+}
+
+MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* pool) {
+  MapRegistry::Options r;
+  r.map_defaults.pool = pool;
+  r.map_defaults.queue_capacity = o.queue_capacity;
+  r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
+  r.map_defaults.store = o.store;
+  r.max_maps = o.max_maps;
+  return r;
+}
+
+}  // namespace
+
+MapService::MapService(const Options& options)
+    : options_(options),
+      pool_(std::make_unique<ThreadPool>(options.worker_threads)),
+      registry_(RegistryOptions(options, pool_.get())) {}
+
+MapService::~MapService() = default;
+
+absl::StatusOr<std::shared_ptr<LiveMap>> MapService::FindMap(const std::string& name,
+                                                             const char* field) const {
+  absl::StatusOr<std::string> id = ParseMapName(name, field);
+  if (!id.ok()) return id.status();
+  return registry_.Get(*id);
+}
+
+absl::Status MapService::Recover() {
+  if (options_.store == nullptr) return absl::OkStatus();
+  absl::StatusOr<std::vector<storage::StoredMap>> stored = options_.store->ListMaps();
+  if (!stored.ok()) return stored.status();
+  for (const storage::StoredMap& m : *stored) {
+    auto skip = [&](const absl::Status& why) {
+      std::fprintf(stderr, "skimapd: map %s not loaded: %s\n", MapName(m.id).c_str(),
+                   why.ToString().c_str());
+    };
+    v1::MapOptions proto;
+    if (!proto.ParseFromString(m.options)) {
+      skip(absl::DataLossError("stored options do not parse"));
+      continue;
+    }
+    absl::StatusOr<MapConfig> config = ResolveMapOptions(proto);
+    if (!config.ok()) {
+      skip(config.status());
+      continue;
+    }
+    absl::StatusOr<std::shared_ptr<LiveMap>> map = registry_.Create(m.id, *config);
+    if (!map.ok()) {
+      skip(map.status());
+      continue;
+    }
+    // A record that no longer applies (refused by today's validation) is reported and
+    // skipped; replay goes on.
+    absl::Status replayed =
+        options_.store->ReadJournal(m.id, 0, [&](const storage::JournalRecord& r) {
+          absl::Status s = (*map)->Replay(r);
+          if (!s.ok() && absl::IsDataLoss(s)) return s;
+          if (!s.ok()) {
+            std::fprintf(stderr, "skimapd: map %s: journal record %llu skipped: %s\n",
+                         MapName(m.id).c_str(), static_cast<unsigned long long>(r.position),
+                         s.ToString().c_str());
+          }
+          return absl::OkStatus();
+        });
+    if (!replayed.ok()) {
+      (void)registry_.Delete(m.id);
+      skip(replayed);
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& request) {
+  if (absl::Status s = ValidateMapId(request.map_id(), "map_id"); !s.ok()) return s;
+  absl::StatusOr<MapConfig> config = ResolveMapOptions(request.options());
+  if (!config.ok()) return config.status();
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = registry_.Create(request.map_id(), *config);
+  if (!map.ok()) return map.status();
+  if (options_.store != nullptr) {
+    absl::Status stored =
+        options_.store->CreateMap(request.map_id(), ToProto(*config).SerializeAsString());
+    if (!stored.ok()) {
+      (void)registry_.Delete(request.map_id());
+      return absl::Status(stored.code(), absl::StrCat("map ", MapName(request.map_id()),
+                                                      " not created: ", stored.message()));
+    }
+  }
+  return Describe(**map);
+}
+
+absl::StatusOr<v1::Map> MapService::GetMap(const v1::GetMapRequest& request) const {
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.name(), "name");
+  if (!map.ok()) return map.status();
+  return Describe(**map);
+}
+
+absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
+    const v1::ListMapsRequest& request) const {
+  if (request.page_size() < 0 || request.page_size() > 1000) {
+    return absl::InvalidArgumentError("page_size must be in 0..1000");
+  }
+  const uint32_t query = QueryFingerprint(0, "ListMaps", "");
+  std::string after;
+  if (!request.page_token().empty()) {
+    absl::StatusOr<std::string> id = DecodePageToken(request.page_token(), query);
+    if (!id.ok()) return id.status();
+    after = *id;
+  }
+  const size_t limit = request.page_size() == 0 ? 50 : request.page_size();
+  std::vector<std::shared_ptr<LiveMap>> maps = registry_.List(after, limit + 1);
+  v1::ListMapsResponse response;
+  for (size_t i = 0; i < maps.size() && i < limit; ++i) *response.add_maps() = Describe(*maps[i]);
+  if (maps.size() > limit)
+    response.set_next_page_token(EncodePageToken(query, maps[limit - 1]->id()));
+  return response;
+}
+
+absl::Status MapService::DeleteMap(const v1::DeleteMapRequest& request) {
+  absl::StatusOr<std::string> id = ParseMapName(request.name(), "name");
+  if (!id.ok()) return id.status();
+  if (absl::Status s = registry_.Delete(*id); !s.ok()) return s;
+  if (options_.store != nullptr) {
+    absl::Status s = options_.store->DeleteMap(*id);
+    if (!s.ok() && !absl::IsNotFound(s)) {
+      return absl::Status(s.code(), absl::StrCat("map ", MapName(*id),
+                                                 ": removed from memory, its data on disk not "
+                                                 "deleted: ",
+                                                 s.message()));
+    }
+  }
+  return absl::OkStatus();
+}
+
+void MapService::IntegrateFrame(std::shared_ptr<const v1::Frame> frame, LiveMap::FrameDone done) {
+  const size_t bytes = frame->depth().size() + frame->color().size();
+  if (bytes > options_.max_frame_bytes) {
+    return done(absl::ResourceExhaustedError(absl::StrCat(
+        "depth+color: frame images are ", bytes, " bytes, limit ", options_.max_frame_bytes)));
+  }
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(frame->map(), "map");
+  if (!map.ok()) return done(map.status());
+  (*map)->SubmitFrame(std::move(frame), std::move(done));
+}
+
+void MapService::UpdatePoses(std::shared_ptr<const v1::UpdatePosesRequest> request,
+                             LiveMap::PosesDone done) {
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request->map(), "map");
+  if (!map.ok()) return done(map.status());
+  (*map)->SubmitPoseUpdates(std::move(request), std::move(done));
+}
+
+}  // namespace skimap::server

@@ -1,0 +1,79 @@
+// MapService: the transport-independent core of the SkiMap API (proto/skimap/v1). Each
+// method takes and returns the API's messages and reports errors as absl::Status with the
+// codes documented in map_service.proto; the gRPC adapter (grpc_service.h) converts them
+// once. Routes of the API map one-to-one onto these methods.
+//
+//   MapService service({.worker_threads = 2});
+//   absl::StatusOr<v1::Map> map = service.CreateMap(request);
+//   service.IntegrateFrame(frame, [](absl::StatusOr<v1::FrameAck> ack) { ... });
+//
+// Thread safety: thread safe; every method may be called from any thread.
+#ifndef SERVER_MAPS_MAP_SERVICE_H_
+#define SERVER_MAPS_MAP_SERVICE_H_
+
+#include <memory>
+
+#include "absl/status/statusor.h"
+#include "server/maps/map_registry.h"
+#include "skimap/thread_pool.h"
+#include "skimap/v1/frames.pb.h"
+#include "skimap/v1/maps.pb.h"
+#include "skimap/v1/queries.pb.h"
+#include "storage/map_store.h"
+
+namespace skimap::server {
+
+class MapService {
+ public:
+  struct Options {
+    int worker_threads = 2;             // integration threads shared by all maps (0 = inline)
+    size_t queue_capacity = 64;         // queued writes per map
+    size_t max_frame_bytes = 64 << 20;  // encoded depth + colour; larger: ResourceExhausted
+    size_t max_kept_frame_bytes = size_t{1} << 30;  // per map, for UpdatePoses
+    size_t max_maps = 1000;
+    // Largest reply (the transport's message limit): grids and height maps that would not
+    // fit are refused with ResourceExhausted before they are computed.
+    size_t max_reply_bytes = 80 << 20;
+    // Where maps persist (not owned; outlives the service). Null: in memory only.
+    storage::MapStore* store = nullptr;
+  };
+  explicit MapService(const Options& options);
+  ~MapService();
+
+  // Loads every map of options.store: creates it with its stored options and replays its
+  // journal. A map that cannot be loaded is reported on stderr and skipped; the others
+  // load. REQUIRES: called once, before the service takes requests.
+  absl::Status Recover();
+
+  absl::StatusOr<v1::Map> CreateMap(const v1::CreateMapRequest& request);
+  absl::StatusOr<v1::Map> GetMap(const v1::GetMapRequest& request) const;
+  absl::StatusOr<v1::ListMapsResponse> ListMaps(const v1::ListMapsRequest& request) const;
+  absl::Status DeleteMap(const v1::DeleteMapRequest& request);
+
+  // Validates the envelope (map name, size) and queues the frame on its map's worker.
+  // `done` runs exactly once, possibly before IntegrateFrame returns.
+  void IntegrateFrame(std::shared_ptr<const v1::Frame> frame, LiveMap::FrameDone done);
+  // Queues pose corrections; `done` runs exactly once.
+  void UpdatePoses(std::shared_ptr<const v1::UpdatePosesRequest> request, LiveMap::PosesDone done);
+
+  absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(
+      const v1::GetOccupancyGridRequest& request) const;
+  absl::StatusOr<v1::HeightMap> GetHeightMap(const v1::GetHeightMapRequest& request) const;
+  // One page of voxels; page tokens are opaque, bound to the map and the query (box,
+  // min_voxel_weight), and stay valid while the map exists.
+  absl::StatusOr<v1::GetVoxelsResponse> GetVoxels(const v1::GetVoxelsRequest& request) const;
+  absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(
+      const v1::RadiusSearchRequest& request) const;
+
+ private:
+  absl::StatusOr<std::shared_ptr<LiveMap>> FindMap(const std::string& name,
+                                                   const char* field) const;
+
+  const Options options_;
+  std::unique_ptr<ThreadPool> pool_;
+  MapRegistry registry_;
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_MAPS_MAP_SERVICE_H_
