@@ -26,6 +26,16 @@ bool WorkQueue::TrySubmit(std::function<void()> task) {
   return true;
 }
 
+bool WorkQueue::Submit(std::function<void()> task) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (stopping_) return false;
+    tasks_.push_back(std::move(task));
+  }
+  cv_.notify_one();
+  return true;
+}
+
 size_t WorkQueue::pending() const {
   std::lock_guard<std::mutex> lock(mu_);
   return tasks_.size();

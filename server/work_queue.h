@@ -12,8 +12,11 @@
 
 #include <condition_variable>
 #include <cstddef>
+#include <cstdlib>
 #include <deque>
 #include <functional>
+#include <future>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -31,6 +34,13 @@ class WorkQueue {
 
   // Queues `task`; false (and `task` dropped) when the queue is full or shutting down.
   [[nodiscard]] bool TrySubmit(std::function<void()> task);
+  // Queues `task` past the capacity (the server's own bounded work: snapshot captures,
+  // journal replay); false only while shutting down.
+  [[nodiscard]] bool Submit(std::function<void()> task);
+  // Runs fn() on the worker after the tasks queued before it and returns its result
+  // (REQUIRES: not called from the worker; the queue is not shutting down).
+  template <class Fn>
+  auto Run(Fn&& fn) -> decltype(fn());
   // Tasks queued and not yet started.
   size_t pending() const;
 
@@ -45,6 +55,15 @@ class WorkQueue {
   bool stopping_ = false;                    // guarded by mu_
   std::thread thread_;
 };
+
+template <class Fn>
+auto WorkQueue::Run(Fn&& fn) -> decltype(fn()) {
+  std::packaged_task<decltype(fn())()> task(std::forward<Fn>(fn));
+  auto result = task.get_future();
+  auto shared = std::make_shared<decltype(task)>(std::move(task));
+  if (!Submit([shared] { (*shared)(); })) std::abort();  // REQUIRES violated
+  return result.get();
+}
 
 }  // namespace skimap::server
 

@@ -61,6 +61,7 @@ struct WriteStats {
 template <Voxel V>
 class SkiMap {
  public:
+  using VoxelType = V;
   struct Options {
     double resolution = 0.05;    // metres per voxel edge, > 0
     Point3 origin;               // world position of the corner of voxel (0, 0, 0)

@@ -52,9 +52,13 @@ class FaultInjectingMapStore final : public MapStore {
     if (absl::Status s = Write(); !s.ok()) return s;
     return base_->AppendJournal(id, records);
   }
-  absl::Status ReadJournal(const std::string& id, uint64_t after,
+  absl::Status ReadJournal(const std::string& id, uint64_t after, size_t limit,
                            const std::function<absl::Status(const JournalRecord&)>& fn) override {
-    return base_->ReadJournal(id, after, fn);
+    return base_->ReadJournal(id, after, limit, fn);
+  }
+  absl::StatusOr<JournalRecord> ReadJournalRecord(const std::string& id,
+                                                  uint64_t position) override {
+    return base_->ReadJournalRecord(id, position);
   }
   absl::Status PruneJournal(const std::string& id, uint64_t upto) override {
     if (absl::Status s = Write(); !s.ok()) return s;

@@ -26,6 +26,7 @@
 #ifndef SKIMAP_STORAGE_MAP_STORE_H_
 #define SKIMAP_STORAGE_MAP_STORE_H_
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -75,10 +76,14 @@ class MapStore {
   // Appends `records` (at least one) durably; returns the position of the last one.
   virtual absl::StatusOr<uint64_t> AppendJournal(const std::string& id,
                                                  const std::vector<JournalRecord>& records) = 0;
-  // Calls fn for every record with position > after, in order; stops at fn's first error.
-  // fn must not call this store (a backend may hold its lock while it reads).
-  virtual absl::Status ReadJournal(const std::string& id, uint64_t after,
+  // Calls fn for the first `limit` records with position > after, in order; stops at fn's
+  // first error. fn must not call this store (a backend may hold its lock while it reads):
+  // callers that must, read in batches of `limit`.
+  virtual absl::Status ReadJournal(const std::string& id, uint64_t after, size_t limit,
                                    const std::function<absl::Status(const JournalRecord&)>& fn) = 0;
+  // The record at `position`; NotFound if the map has none there (pruned or never written).
+  virtual absl::StatusOr<JournalRecord> ReadJournalRecord(const std::string& id,
+                                                          uint64_t position) = 0;
   // Drops the records with position <= upto (they are covered by a snapshot).
   virtual absl::Status PruneJournal(const std::string& id, uint64_t upto) = 0;
 

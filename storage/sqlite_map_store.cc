@@ -1,6 +1,8 @@
 #include "storage/sqlite_map_store.h"
 
+#include <algorithm>
 #include <chrono>
+#include <climits>
 
 #include "absl/strings/str_cat.h"
 #include "storage/migrations.h"
@@ -148,26 +150,48 @@ absl::StatusOr<uint64_t> SqliteMapStore::AppendJournal(const std::string& id,
   return position;
 }
 
+absl::StatusOr<JournalRecord> SqliteMapStore::RecordAt(const std::string& id, Statement& st) {
+  const int64_t kind = st.ColumnInt(1);
+  if (kind != JournalRecord::kFrame && kind != JournalRecord::kPoseUpdate) {
+    return absl::DataLossError(
+        absl::StrCat("map store: map ", id, ": journal record of unknown kind ", kind));
+  }
+  return JournalRecord{JournalRecord::Kind(kind), st.ColumnBlob(2), uint64_t(st.ColumnInt(0))};
+}
+
 absl::Status SqliteMapStore::ReadJournal(
-    const std::string& id, uint64_t after,
+    const std::string& id, uint64_t after, size_t limit,
     const std::function<absl::Status(const JournalRecord&)>& fn) {
   std::lock_guard<std::mutex> lock(mu_);
   SK_RETURN_IF_ERROR(GetMapLocked(id).status());
   SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT position, kind, payload FROM journal "
-                                       "WHERE map = ? AND position > ? ORDER BY position"));
+                                       "WHERE map = ? AND position > ? ORDER BY position "
+                                       "LIMIT ?"));
   SK_RETURN_IF_ERROR(st.BindText(1, id));
   SK_RETURN_IF_ERROR(st.BindInt(2, int64_t(after)));
+  SK_RETURN_IF_ERROR(st.BindInt(3, int64_t(std::min<size_t>(limit, INT64_MAX))));
   while (true) {
     SK_ASSIGN_OR_RETURN(row, st.Step());
     if (!row) return absl::OkStatus();
-    const int64_t kind = st.ColumnInt(1);
-    if (kind != JournalRecord::kFrame && kind != JournalRecord::kPoseUpdate) {
-      return absl::DataLossError(
-          absl::StrCat("map store: map ", id, ": journal record of unknown kind ", kind));
-    }
-    JournalRecord r{JournalRecord::Kind(kind), st.ColumnBlob(2), uint64_t(st.ColumnInt(0))};
-    SK_RETURN_IF_ERROR(fn(r));
+    SK_ASSIGN_OR_RETURN(record, RecordAt(id, st));
+    SK_RETURN_IF_ERROR(fn(record));
   }
+}
+
+absl::StatusOr<JournalRecord> SqliteMapStore::ReadJournalRecord(const std::string& id,
+                                                                uint64_t position) {
+  std::lock_guard<std::mutex> lock(mu_);
+  SK_RETURN_IF_ERROR(GetMapLocked(id).status());
+  SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT position, kind, payload FROM journal "
+                                       "WHERE map = ? AND position = ?"));
+  SK_RETURN_IF_ERROR(st.BindText(1, id));
+  SK_RETURN_IF_ERROR(st.BindInt(2, int64_t(position)));
+  SK_ASSIGN_OR_RETURN(row, st.Step());
+  if (!row) {
+    return absl::NotFoundError(
+        absl::StrCat("map store: map ", id, ": no journal record at position ", position));
+  }
+  return RecordAt(id, st);
 }
 
 absl::Status SqliteMapStore::PruneJournal(const std::string& id, uint64_t upto) {

@@ -27,8 +27,10 @@ class SqliteMapStore final : public MapStore {
   absl::StatusOr<StoredMap> GetMap(const std::string& id) override;
   absl::StatusOr<uint64_t> AppendJournal(const std::string& id,
                                          const std::vector<JournalRecord>& records) override;
-  absl::Status ReadJournal(const std::string& id, uint64_t after,
+  absl::Status ReadJournal(const std::string& id, uint64_t after, size_t limit,
                            const std::function<absl::Status(const JournalRecord&)>& fn) override;
+  absl::StatusOr<JournalRecord> ReadJournalRecord(const std::string& id,
+                                                  uint64_t position) override;
   absl::Status PruneJournal(const std::string& id, uint64_t upto) override;
   absl::Status WriteSnapshot(const std::string& id, uint64_t covers_position,
                              const std::vector<Chunk>& changed,
@@ -39,6 +41,8 @@ class SqliteMapStore final : public MapStore {
  private:
   explicit SqliteMapStore(std::unique_ptr<Database> db) : db_(std::move(db)) {}
   absl::StatusOr<StoredMap> GetMapLocked(const std::string& id);
+  // The journal record in the current row of `st` (position, kind, payload).
+  static absl::StatusOr<JournalRecord> RecordAt(const std::string& id, Statement& st);
 
   std::mutex mu_;
   std::unique_ptr<Database> db_;  // guarded by mu_

@@ -21,9 +21,11 @@ class Pending {
     build(&scratch_);
     target.AddItems(scratch_.items());
   }
-  WriteStats Apply(SkiMap<V>* volume, ThreadPool* pool) {
+  WriteStats Apply(SkiMap<V>* volume, DirtyChunks* dirty, ThreadPool* pool) {
     remove_.Finalize(pool);
     add_.Finalize(pool);
+    MarkDirty(remove_, dirty);
+    MarkDirty(add_, dirty);
     WriteStats stats;
     if (!remove_.empty()) stats += volume->Deintegrate(remove_);
     if (!add_.empty()) stats += volume->Integrate(add_);
@@ -36,6 +38,18 @@ class Pending {
   }
 
  private:
+  // Items are sorted by key, so runs share a chunk: one set insert per run.
+  static void MarkDirty(const VoxelBatch<V>& batch, DirtyChunks* dirty) {
+    bool first = true;
+    ChunkCoord last;
+    for (const auto& item : batch.items()) {
+      const ChunkCoord c = ChunkOf(item.key);
+      if (first || !(c == last)) dirty->insert(c);
+      first = false;
+      last = c;
+    }
+  }
+
   VoxelBatch<V> add_, remove_, scratch_;
 };
 
@@ -50,7 +64,9 @@ class IntegrateStage final : public FrameStage {
     });
     return stats;
   }
-  WriteStats Apply(MapState* state) override { return pending_.Apply(&state->rgb, pool_); }
+  WriteStats Apply(MapState* state) override {
+    return pending_.Apply(&state->rgb, &state->dirty_rgb, pool_);
+  }
   void Clear() override { pending_.Clear(); }
 
  private:
@@ -73,7 +89,9 @@ class CarveStage final : public FrameStage {
     });
     return {};
   }
-  WriteStats Apply(MapState* state) override { return pending_.Apply(&state->free, pool_); }
+  WriteStats Apply(MapState* state) override {
+    return pending_.Apply(&state->free, &state->dirty_free, pool_);
+  }
   void Clear() override { pending_.Clear(); }
 
  private:

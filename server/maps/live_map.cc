@@ -1,12 +1,17 @@
 #include "server/maps/live_map.h"
 
 #include <chrono>
+#include <cstdio>
 #include <future>
+#include <limits>
 #include <random>
+#include <type_traits>
 #include <utility>
 
+#include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
 #include "perception/frame_integrator.h"
+#include "server/maps/chunk_codec.h"
 #include "server/maps/frame_decode.h"
 
 namespace skimap::server {
@@ -22,6 +27,41 @@ void SetDuration(Clock::duration d, google::protobuf::Duration* out) {
 
 }  // namespace
 
+// What a snapshot writes, copied on the worker: the journal position it covers, an
+// encoder per changed chunk (run off the worker), the chunks left empty, the frame-index
+// chunks, and the retention cut to prune after it is durable.
+struct LiveMap::Capture {
+  uint64_t position = 0;
+  std::vector<std::function<storage::Chunk()>> encoders;
+  std::vector<storage::ChunkKey> removed;
+  std::vector<storage::Chunk> index_chunks;
+  std::vector<std::pair<std::string, ChunkCoord>> coords;  // every captured volume chunk
+  std::vector<int64_t> buckets;                            // every captured index chunk
+  uint64_t prune_upto = 0;
+  bool empty() const { return encoders.empty() && removed.empty() && index_chunks.empty(); }
+};
+
+namespace {
+
+constexpr char kFramesVolume[] = "frames";  // chunk volume name of the frame index
+constexpr size_t kReplayBatch = 64;         // journal records read per store call
+
+int64_t NowUnixMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Chunk coordinates read back from a store fit the key range (they were written by
+// ChunkOf); anything else is corruption.
+bool ValidChunkCoord(const storage::ChunkKey& k) {
+  constexpr int64_t kMin = std::numeric_limits<int32_t>::min() >> kChunkShift;
+  constexpr int64_t kMax = std::numeric_limits<int32_t>::max() >> kChunkShift;
+  return k.x >= kMin && k.x <= kMax && k.y >= kMin && k.y <= kMax && k.z >= kMin && k.z <= kMax;
+}
+
+}  // namespace
+
 LiveMap::LiveMap(std::string id, const Options& options)
     : id_(std::move(id)),
       incarnation_(uint64_t{std::random_device()()} << 32 | std::random_device()()),
@@ -32,15 +72,29 @@ LiveMap::LiveMap(std::string id, const Options& options)
 
 LiveMap::~LiveMap() = default;
 
-absl::Status LiveMap::MapGone() const {
-  return absl::NotFoundError(absl::StrCat("map ", MapName(id_), " was deleted"));
+absl::Status LiveMap::Refused() const {
+  if (deleted_.load(std::memory_order_acquire)) {
+    return absl::NotFoundError(absl::StrCat("map ", MapName(id_), " was deleted"));
+  }
+  if (evicted_.load(std::memory_order_acquire)) {
+    return absl::UnavailableError(
+        absl::StrCat("map ", MapName(id_), " was unloaded from memory meanwhile; retry"));
+  }
+  return absl::OkStatus();
+}
+
+std::string LiveMap::RetentionPolicy() const {
+  return absl::StrCat(
+      "retention policy: once snapshotted, the oldest frame records are pruned "
+      "while the map's frame records exceed ",
+      options_.journal_retain_bytes, " bytes (--journal_retain_bytes)");
 }
 
 void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done) {
-  if (deleted_.load(std::memory_order_acquire)) return done(MapGone());
+  if (absl::Status s = Refused(); !s.ok()) return done(s);
   auto shared_done = std::make_shared<FrameDone>(std::move(done));
   const bool queued = queue_.TrySubmit(
-      [this, frame, shared_done] { (*shared_done)(IntegrateOnWorker(frame, Source::kAppend)); });
+      [this, frame, shared_done] { (*shared_done)(IntegrateOnWorker(frame, Source::kAppend, 0)); });
   if (!queued) {
     (*shared_done)(absl::ResourceExhaustedError(
         absl::StrCat("map ", MapName(id_), ": write queue full (", options_.queue_capacity,
@@ -50,10 +104,10 @@ void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done
 
 void LiveMap::SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> request,
                                 PosesDone done) {
-  if (deleted_.load(std::memory_order_acquire)) return done(MapGone());
+  if (absl::Status s = Refused(); !s.ok()) return done(s);
   auto shared_done = std::make_shared<PosesDone>(std::move(done));
   const bool queued = queue_.TrySubmit([this, request, shared_done] {
-    (*shared_done)(UpdatePosesOnWorker(*request, Source::kAppend));
+    (*shared_done)(UpdatePosesOnWorker(*request, Source::kAppend, 0));
   });
   if (!queued) {
     (*shared_done)(absl::ResourceExhaustedError(
@@ -61,53 +115,125 @@ void LiveMap::SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> re
   }
 }
 
-absl::Status LiveMap::Journal(storage::JournalRecord::Kind kind,
-                              const google::protobuf::Message& m) {
-  if (options_.store == nullptr) return absl::OkStatus();
-  absl::StatusOr<uint64_t> position =
-      options_.store->AppendJournal(id_, {{kind, m.SerializeAsString()}});
+absl::StatusOr<uint64_t> LiveMap::Journal(storage::JournalRecord::Kind kind,
+                                          const std::string& bytes) {
+  if (options_.store == nullptr) return 0;
+  absl::StatusOr<uint64_t> position = options_.store->AppendJournal(id_, {{kind, bytes}});
   if (position.ok()) {
     journal_position_.store(*position, std::memory_order_release);
-    return absl::OkStatus();
+    return *position;
   }
   return absl::Status(position.status().code(),
                       absl::StrCat("journal: ", MapName(id_), ": ", position.status().message(),
                                    " (not applied, not acknowledged)"));
 }
 
-absl::Status LiveMap::Replay(const storage::JournalRecord& record) {
+absl::Status LiveMap::Load() {
+  absl::Status loaded = queue_.Run([this] { return LoadSnapshotOnWorker(); });
+  if (!loaded.ok()) return loaded;
+  // The journal after the snapshot, in batches: replay reads the store again (pose
+  // updates read their frames back), which ReadJournal's callback must not.
+  uint64_t after = snapshot_position_.load(std::memory_order_acquire);
+  for (;;) {
+    std::vector<storage::JournalRecord> batch;
+    absl::Status read =
+        options_.store->ReadJournal(id_, after, kReplayBatch, [&](const storage::JournalRecord& r) {
+          batch.push_back(r);
+          return absl::OkStatus();
+        });
+    if (!read.ok()) return read;
+    if (batch.empty()) return absl::OkStatus();
+    for (const storage::JournalRecord& r : batch) {
+      absl::Status s = queue_.Run([&] { return ReplayOnWorker(r); });
+      if (absl::IsDataLoss(s)) return s;
+      if (!s.ok()) {
+        std::fprintf(stderr, "skimapd: map %s: journal record %llu skipped: %s\n",
+                     MapName(id_).c_str(), static_cast<unsigned long long>(r.position),
+                     s.ToString().c_str());
+      }
+      after = r.position;
+    }
+  }
+}
+
+absl::Status LiveMap::LoadSnapshotOnWorker() {
+  storage::MapStore& store = *options_.store;
+  absl::StatusOr<storage::StoredMap> stored = store.GetMap(id_);
+  if (!stored.ok()) return stored.status();
+  auto chunk_error = [&](const storage::ChunkKey& k, const absl::Status& s) {
+    return absl::Status(s.code(), absl::StrCat("snapshot of ", MapName(id_), ": chunk ", k.volume,
+                                               " (", k.x, ",", k.y, ",", k.z, "): ", s.message()));
+  };
+  absl::StatusOr<uint64_t> covered;
+  {
+    WriterLock lock(&snapshot_mu_);
+    covered = store.ReadSnapshot(id_, [&](const storage::Chunk& c) -> absl::Status {
+      if (c.key.volume == kFramesVolume) {
+        absl::Status s = index_.DecodeBucket(c.key.x, c.bytes);
+        return s.ok() ? s : chunk_error(c.key, s);
+      }
+      if (!ValidChunkCoord(c.key)) {
+        return chunk_error(c.key, absl::DataLossError("coordinates outside the key range"));
+      }
+      const ChunkCoord coord{int32_t(c.key.x), int32_t(c.key.y), int32_t(c.key.z)};
+      absl::Status s = absl::FailedPreconditionError("unknown volume (written by a newer server?)");
+      state_.ForEachVolume([&](const char* name, auto& volume, DirtyChunks&) {
+        if (c.key.volume != name) return;
+        using V = typename std::remove_reference_t<decltype(volume)>::VoxelType;
+        VoxelBatch<V> batch;
+        s = DecodeVoxelChunk<V>(coord, c.bytes, &batch);
+        if (!s.ok()) return;
+        batch.Finalize();  // sorted and unique already; marks the batch ready
+        volume.Integrate(batch);
+      });
+      return s.ok() ? s : chunk_error(c.key, s);
+    });
+    if (!covered.ok()) return covered.status();
+    state_.frames = index_.size();
+    state_.journal_position = *covered;
+    state_.ForEachVolume([](const char*, auto&, DirtyChunks& dirty) { dirty.clear(); });
+  }
+  (void)index_.TakeDirty();
+  // Records before the first one left in the journal were pruned.
+  uint64_t first = 0;
+  absl::Status read = store.ReadJournal(id_, 0, 1, [&](const storage::JournalRecord& r) {
+    first = r.position;
+    return absl::OkStatus();
+  });
+  if (!read.ok()) return read;
+  const uint64_t pruned = first > 0 ? first - 1 : stored->last_position;
+  index_.MarkPruned(pruned);
+  pruned_position_.store(pruned, std::memory_order_release);
+  journal_bytes_.store(index_.journal_bytes(), std::memory_order_release);
+  journal_position_.store(std::max(*covered, pruned), std::memory_order_release);
+  snapshot_position_.store(*covered, std::memory_order_release);
+  snapshot_unix_ms_.store(stored->snapshot_unix_ms, std::memory_order_release);
+  return absl::OkStatus();
+}
+
+absl::Status LiveMap::ReplayOnWorker(const storage::JournalRecord& record) {
   journal_position_.store(record.position, std::memory_order_release);
-  std::promise<absl::Status> done;
-  std::function<void()> task;
   if (record.kind == storage::JournalRecord::kFrame) {
     auto frame = std::make_shared<v1::Frame>();
     if (!frame->ParseFromString(record.payload)) {
       return absl::DataLossError(
           absl::StrCat("journal: ", MapName(id_), ": record ", record.position, " is not a Frame"));
     }
-    task = [&, frame] { done.set_value(IntegrateOnWorker(frame, Source::kReplay).status()); };
-  } else {
-    auto request = std::make_shared<v1::UpdatePosesRequest>();
-    if (!request->ParseFromString(record.payload)) {
-      return absl::DataLossError(absl::StrCat("journal: ", MapName(id_), ": record ",
-                                              record.position, " is not an UpdatePosesRequest"));
-    }
-    task = [&, request] {
-      done.set_value(UpdatePosesOnWorker(*request, Source::kReplay).status());
-    };
+    return IntegrateOnWorker(frame, Source::kReplay, record.position).status();
   }
-  // Replay runs before the map serves and waits for each record, so the queue is empty.
-  if (!queue_.TrySubmit(task)) {
-    return absl::InternalError(absl::StrCat("journal: ", MapName(id_), ": replay while serving"));
+  v1::UpdatePosesRequest request;
+  if (!request.ParseFromString(record.payload)) {
+    return absl::DataLossError(absl::StrCat("journal: ", MapName(id_), ": record ", record.position,
+                                            " is not an UpdatePosesRequest"));
   }
-  return done.get_future().get();
+  return UpdatePosesOnWorker(request, Source::kReplay, record.position).status();
 }
 
 absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
-                                                        Source source) {
-  if (deleted_.load(std::memory_order_acquire)) return MapGone();
+                                                        Source source, uint64_t position) {
+  if (absl::Status s = Refused(); !s.ok()) return s;
   const Clock::time_point start = Clock::now();
-  if (sequences_.contains(frame->sequence())) {
+  if (index_.Contains(frame->sequence())) {
     return absl::AlreadyExistsError(
         absl::StrCat("sequence: frame ", frame->sequence(), " is already in ", MapName(id_)));
   }
@@ -116,14 +242,28 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
   if (absl::Status s = ValidatePoseInMap(decoded->pose, options_.config, "pose"); !s.ok()) {
     return s;
   }
-  // Durable before it changes the map or is acknowledged.
-  if (source == Source::kAppend) {
-    if (absl::Status s = Journal(storage::JournalRecord::kFrame, *frame); !s.ok()) return s;
+  FrameIndex::Entry entry{.pose = decoded->pose};
+  if (options_.store != nullptr) {
+    const std::string record = frame->SerializeAsString();
+    entry.record_bytes = record.size();
+    // Durable before it changes the map or is acknowledged.
+    if (source == Source::kAppend) {
+      absl::StatusOr<uint64_t> appended = Journal(storage::JournalRecord::kFrame, record);
+      if (!appended.ok()) return appended.status();
+      position = *appended;
+    }
+    entry.position = position;
+  } else {
+    entry.position = ++arrivals_;
+    entry.record_bytes = frame->ByteSizeLong();
+    entry.frame = frame;
   }
   const perception::IntegrationStats stats = StageFrame(*decoded, FrameStage::kAdd);
-  const WriteStats written = ApplyStages(1);
-  sequences_.insert(frame->sequence());
-  KeepFrame(frame->sequence(), {frame, decoded->pose});
+  const WriteStats written = ApplyStages(1, position);
+  index_.Add(frame->sequence(), std::move(entry));
+  if (options_.store == nullptr) index_.LimitKeptFrames(options_.max_kept_frame_bytes);
+  kept_frame_bytes_.store(index_.kept_frame_bytes(), std::memory_order_relaxed);
+  journal_bytes_.store(index_.journal_bytes(), std::memory_order_relaxed);
   v1::FrameAck ack;
   ack.set_sequence(frame->sequence());
   ack.set_voxels_touched(written.voxels_touched);
@@ -153,32 +293,54 @@ perception::IntegrationStats LiveMap::StageFrame(const perception::RgbdFrame& fr
   return first;
 }
 
-WriteStats LiveMap::ApplyStages(uint64_t frames_added) {
+WriteStats LiveMap::ApplyStages(uint64_t frames_added, uint64_t position) {
   WriteStats total;
   WriterLock lock(&snapshot_mu_);
   for (const std::unique_ptr<FrameStage>& stage : stages_) total += stage->Apply(&state_);
   state_.frames += frames_added;
+  if (position > 0) state_.journal_position = position;
   return total;
 }
 
-void LiveMap::KeepFrame(uint64_t sequence, KeptFrame kept) {
-  const size_t bytes = kept.frame->ByteSizeLong();
-  kept_.emplace(sequence, std::move(kept));
-  WriterLock lock(&snapshot_mu_);
-  kept_bytes_ += bytes;
-  while (kept_bytes_ > options_.max_kept_frame_bytes && !kept_.empty()) {
-    kept_bytes_ -= kept_.begin()->second.frame->ByteSizeLong();
-    kept_.erase(kept_.begin());
+absl::StatusOr<std::shared_ptr<const v1::Frame>> LiveMap::FrameOf(const FrameIndex::Entry& entry,
+                                                                  uint64_t sequence,
+                                                                  const std::string& field) {
+  if (options_.store == nullptr) {
+    if (entry.frame != nullptr) return entry.frame;
+    return absl::FailedPreconditionError(absl::StrCat(
+        field, ".sequence: frame ", sequence, " is no longer kept in memory (the newest ",
+        options_.max_kept_frame_bytes, " bytes of frames are; this server has no data dir)"));
   }
+  const auto pruned = [&] {
+    return absl::FailedPreconditionError(absl::StrCat(field, ".sequence: frame ", sequence,
+                                                      " was pruned from the journal by the ",
+                                                      RetentionPolicy()));
+  };
+  if (index_.Pruned(entry)) return pruned();
+  absl::StatusOr<storage::JournalRecord> record =
+      options_.store->ReadJournalRecord(id_, entry.position);
+  if (absl::IsNotFound(record.status())) return pruned();
+  if (!record.ok()) {
+    return absl::Status(record.status().code(),
+                        absl::StrCat("journal: ", MapName(id_), ": ", record.status().message()));
+  }
+  auto frame = std::make_shared<v1::Frame>();
+  if (record->kind != storage::JournalRecord::kFrame || !frame->ParseFromString(record->payload)) {
+    return absl::DataLossError(absl::StrCat("journal: ", MapName(id_), ": record ", entry.position,
+                                            " is not frame ", sequence));
+  }
+  return frame;
 }
 
 absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
-    const v1::UpdatePosesRequest& request, Source source) {
-  if (deleted_.load(std::memory_order_acquire)) return MapGone();
+    const v1::UpdatePosesRequest& request, Source source, uint64_t position) {
+  if (absl::Status s = Refused(); !s.ok()) return s;
   const Clock::time_point start = Clock::now();
-  // Validate everything first: all or nothing.
+  index_.MarkPruned(pruned_position_.load(std::memory_order_acquire));
+  // Validate everything and read every frame back first: all or nothing.
   std::vector<perception::CameraPose> poses;
-  std::unordered_set<uint64_t> seen;
+  std::vector<std::shared_ptr<const v1::Frame>> frames;
+  absl::flat_hash_set<uint64_t> seen;
   for (int i = 0; i < request.updates_size(); ++i) {
     const v1::PoseUpdate& u = request.updates(i);
     const std::string field = absl::StrCat("updates[", i, "]");
@@ -186,13 +348,10 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
       return absl::InvalidArgumentError(
           absl::StrCat(field, ".sequence: frame ", u.sequence(), " appears twice"));
     }
-    if (!sequences_.contains(u.sequence())) {
+    const FrameIndex::Entry* entry = index_.Find(u.sequence());
+    if (entry == nullptr) {
       return absl::NotFoundError(absl::StrCat(field, ".sequence: frame ", u.sequence(),
                                               " was never integrated into ", MapName(id_)));
-    }
-    if (!kept_.contains(u.sequence())) {
-      return absl::FailedPreconditionError(absl::StrCat(field, ".sequence: frame ", u.sequence(),
-                                                        " is no longer kept (memory limit)"));
     }
     absl::StatusOr<perception::CameraPose> pose = DecodePose(u.pose(), u.has_pose());
     if (!pose.ok()) {
@@ -202,23 +361,26 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
         !s.ok()) {
       return s;
     }
+    absl::StatusOr<std::shared_ptr<const v1::Frame>> frame = FrameOf(*entry, u.sequence(), field);
+    if (!frame.ok()) return frame.status();
     poses.push_back(*pose);
+    frames.push_back(*std::move(frame));
   }
   if (source == Source::kAppend) {
-    if (absl::Status s = Journal(storage::JournalRecord::kPoseUpdate, request); !s.ok()) {
-      return s;
-    }
+    absl::StatusOr<uint64_t> appended =
+        Journal(storage::JournalRecord::kPoseUpdate, request.SerializeAsString());
+    if (!appended.ok()) return appended.status();
+    position = *appended;
   }
   // Every frame leaves with its old pose and comes back with the new one: staged outside
   // the lock (merged per voxel in each stage) ...
   for (int i = 0; i < request.updates_size(); ++i) {
-    const KeptFrame& kept = kept_.at(request.updates(i).sequence());
-    absl::StatusOr<perception::RgbdFrame> frame = DecodeFrame(*kept.frame);
+    absl::StatusOr<perception::RgbdFrame> frame = DecodeFrame(*frames[i]);
     if (!frame.ok()) {  // decoded fine before: cannot happen
       for (const std::unique_ptr<FrameStage>& stage : stages_) stage->Clear();
       return frame.status();
     }
-    frame->pose = kept.pose;
+    frame->pose = index_.Find(request.updates(i).sequence())->pose;
     StageFrame(*frame, FrameStage::kRemove);
     frame->pose = poses[i];
     StageFrame(*frame, FrameStage::kAdd);
@@ -226,14 +388,90 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
   // ... and applied in one snapshot: a reader sees every correction or none. The weights
   // are integer counts, so merged de-integration is exact.
   v1::UpdatePosesResponse response;
-  const WriteStats total = ApplyStages(0);
+  const WriteStats total = ApplyStages(0, position);
   for (int i = 0; i < request.updates_size(); ++i) {
-    kept_.at(request.updates(i).sequence()).pose = poses[i];
+    index_.SetPose(request.updates(i).sequence(), poses[i]);
   }
   response.set_frames_updated(request.updates_size());
   response.set_voxels_touched(total.voxels_touched);
   SetDuration(Clock::now() - start, response.mutable_time());
   return response;
+}
+
+std::unique_ptr<LiveMap::Capture> LiveMap::CaptureOnWorker() {
+  auto c = std::make_unique<Capture>();
+  index_.MarkPruned(pruned_position_.load(std::memory_order_acquire));
+  {
+    // The worker is the only writer and it is here: reading needs no exclusive lock, only
+    // clearing the dirty sets does.
+    WriterLock lock(&snapshot_mu_);
+    c->position = state_.journal_position;
+    state_.ForEachVolume([&](const char* name, auto& volume, DirtyChunks& dirty) {
+      using V = typename std::remove_reference_t<decltype(volume)>::VoxelType;
+      for (const ChunkCoord& coord : dirty) {
+        c->coords.emplace_back(name, coord);
+        std::vector<typename VoxelBatch<V>::Item> items;
+        volume.ForEachInBox(ChunkBox(coord), [&](const VoxelKey& k, const V& v) {
+          items.push_back({k, v});
+        });
+        storage::ChunkKey key{name, coord.x, coord.y, coord.z};
+        if (items.empty()) {
+          c->removed.push_back(std::move(key));
+          continue;
+        }
+        c->encoders.push_back([key = std::move(key), coord, items = std::move(items)] {
+          return storage::Chunk{key, EncodeVoxelChunk<V>(coord, items)};
+        });
+      }
+      dirty.clear();
+    });
+  }
+  c->buckets = index_.TakeDirty();
+  for (int64_t b : c->buckets) {
+    c->index_chunks.push_back({{kFramesVolume, b, 0, 0}, index_.EncodeBucket(b)});
+  }
+  c->prune_upto = index_.RetentionCut(c->position, options_.journal_retain_bytes);
+  return c;
+}
+
+absl::Status LiveMap::Snapshot() {
+  if (options_.store == nullptr) return absl::OkStatus();
+  std::lock_guard<std::mutex> one_at_a_time(snapshot_run_mu_);
+  std::unique_ptr<Capture> c = queue_.Run([this] { return CaptureOnWorker(); });
+  const uint64_t pruned = pruned_position_.load(std::memory_order_acquire);
+  if (c->empty() && c->position == snapshot_position_.load(std::memory_order_acquire) &&
+      c->prune_upto <= pruned) {
+    return absl::OkStatus();
+  }
+  std::vector<storage::Chunk> chunks = std::move(c->index_chunks);
+  chunks.reserve(chunks.size() + c->encoders.size());
+  for (const auto& encode : c->encoders) chunks.push_back(encode());
+  absl::Status written = options_.store->WriteSnapshot(id_, c->position, chunks, c->removed);
+  if (!written.ok()) {
+    // Pending again: the next snapshot writes these chunks (with their newer content).
+    {
+      WriterLock lock(&snapshot_mu_);
+      for (const auto& [name, coord] : c->coords) {
+        state_.ForEachVolume([&](const char* n, auto&, DirtyChunks& dirty) {
+          if (name == n) dirty.insert(coord);
+        });
+      }
+    }
+    (void)queue_.Submit([this, buckets = std::move(c->buckets)] { index_.MarkDirty(buckets); });
+    return absl::Status(written.code(), absl::StrCat("snapshot of ", MapName(id_),
+                                                     " not written: ", written.message()));
+  }
+  snapshot_position_.store(c->position, std::memory_order_release);
+  snapshot_unix_ms_.store(NowUnixMs(), std::memory_order_release);
+  if (c->prune_upto > pruned) {
+    absl::Status s = options_.store->PruneJournal(id_, c->prune_upto);
+    if (!s.ok()) {
+      return absl::Status(s.code(),
+                          absl::StrCat("journal of ", MapName(id_), " not pruned: ", s.message()));
+    }
+    pruned_position_.store(c->prune_upto, std::memory_order_release);
+  }
+  return absl::OkStatus();
 }
 
 v1::MapStats LiveMap::Stats() const {
@@ -242,10 +480,18 @@ v1::MapStats LiveMap::Stats() const {
   stats.set_voxels(state_.rgb.size());
   stats.set_memory_bytes(state_.rgb.MemoryUsage() + state_.free.MemoryUsage());
   stats.set_frames(state_.frames);
-  stats.set_kept_frame_bytes(kept_bytes_);
+  stats.set_kept_frame_bytes(kept_frame_bytes_.load(std::memory_order_relaxed));
   stats.set_free_voxels(state_.free.size());
   stats.set_journal_position(journal_position_.load(std::memory_order_acquire));
   stats.set_persistent(options_.store != nullptr);
+  stats.set_snapshot_position(snapshot_position_.load(std::memory_order_acquire));
+  if (const int64_t ms = snapshot_unix_ms_.load(std::memory_order_acquire); ms > 0) {
+    stats.mutable_snapshot_time()->set_seconds(ms / 1000);
+    stats.mutable_snapshot_time()->set_nanos(static_cast<int32_t>(ms % 1000) * 1000000);
+  }
+  stats.set_pruned_position(pruned_position_.load(std::memory_order_acquire));
+  stats.set_journal_bytes(journal_bytes_.load(std::memory_order_relaxed));
+  stats.set_loaded(true);
   if (std::optional<KeyBox> box = state_.rgb.Bounds()) {
     const Grid& g = state_.rgb.grid();
     const double r = g.resolution();

@@ -1,6 +1,7 @@
 // LiveMap: one map of the service: its MapState (every volume), the per-map pipeline of
-// frame stages (frame_stages.h), the frames kept for pose updates, and the worker that
-// runs writes in order.
+// frame stages (frame_stages.h), its frame index (frame_index.h), the worker that runs
+// writes in order, and its persistence: the journal (every write durable before it is
+// applied and acknowledged), incremental snapshots, reload and retention.
 //
 //   LiveMap map("kitchen", {.config = config, .pool = &pool});
 //   map.SubmitFrame(frame, [](absl::StatusOr<v1::FrameAck> ack) { ... });
@@ -22,14 +23,15 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
-#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
-#include <unordered_set>
+#include <vector>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "perception/rgbd_frame.h"
+#include "server/maps/frame_index.h"
 #include "server/maps/frame_stages.h"
 #include "server/maps/map_config.h"
 #include "server/maps/map_state.h"
@@ -49,10 +51,14 @@ class LiveMap {
     MapConfig config;
     ThreadPool* pool = nullptr;                     // threads for batch integration (not owned)
     size_t queue_capacity = 64;                     // queued writes before ResourceExhausted
-    size_t max_kept_frame_bytes = size_t{1} << 30;  // oldest frames are dropped beyond
-    // Journal: every accepted frame and pose update is appended (durably) here before it
-    // is applied and acknowledged. Null: the map lives in memory only. Not owned.
+    size_t max_kept_frame_bytes = size_t{1} << 30;  // without a store: frames kept in memory
+    // Journal and snapshots: every accepted frame and pose update is appended (durably)
+    // here before it is applied and acknowledged. Null: the map lives in memory only and
+    // UpdatePoses works on the frames kept in memory. Not owned.
     storage::MapStore* store = nullptr;
+    // Retention policy: once a snapshot covers them, the oldest frame records are pruned
+    // from the journal while the map's frame records weigh more than this.
+    uint64_t journal_retain_bytes = uint64_t{1} << 30;
   };
   using FrameDone = std::function<void(absl::StatusOr<v1::FrameAck>)>;
   using PosesDone = std::function<void(absl::StatusOr<v1::UpdatePosesResponse>)>;
@@ -69,11 +75,13 @@ class LiveMap {
 
   // Queues `frame` (REQUIRES: frame.map() names this map). `done` runs exactly once with
   // the ack, or with: InvalidArgument (bad frame), AlreadyExists (sequence seen before),
-  // ResourceExhausted (queue full), NotFound (map deleted meanwhile).
+  // ResourceExhausted (queue full), NotFound (map deleted meanwhile), or the store's error
+  // prefixed "journal:" (not journaled: neither applied nor acknowledged).
   void SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done);
   // Queues pose corrections; `done` runs once. Validation is all-or-nothing:
   // InvalidArgument (bad pose, duplicate sequence), NotFound (unknown sequence),
-  // FailedPrecondition (frame no longer kept); nothing is applied then.
+  // FailedPrecondition (the frame's record was pruned by the retention policy, or, without
+  // a store, the frame is no longer kept in memory); nothing is applied then.
   void SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> request, PosesDone done);
 
   // Runs fn(const MapState&) on a consistent snapshot and returns its result. fn must not
@@ -86,54 +94,82 @@ class LiveMap {
   // Counters from one snapshot.
   v1::MapStats Stats() const;
 
-  // Re-applies one journal record (a frame or a pose update as it was accepted) without
-  // journaling it again; blocks until the worker has applied it. For recovery at start,
-  // before the map serves. DataLoss if the record does not parse.
-  absl::Status Replay(const storage::JournalRecord& record);
+  // Loads the map from the store: the latest snapshot, then the journal records after it.
+  // A record that no longer applies (refused by today's validation) is reported on stderr
+  // and skipped. DataLoss (corrupt chunk or record), FailedPrecondition (written by a newer
+  // server) or the store's error. REQUIRES: a store; called once, before the map serves.
+  absl::Status Load();
+
+  // Writes a snapshot covering every write applied so far: the chunks of every volume and
+  // of the frame index changed since the last snapshot, then prunes the journal by the
+  // retention policy. The changed chunks are copied on the map's worker (writes wait for
+  // the copy only); they are encoded and written on the calling thread. OK without a
+  // store or when nothing changed. On error the changes stay pending for the next one.
+  // Not concurrently with itself.
+  absl::Status Snapshot();
+  // Journal records not yet covered by a snapshot.
+  uint64_t records_since_snapshot() const {
+    return journal_position_.load(std::memory_order_acquire) -
+           snapshot_position_.load(std::memory_order_acquire);
+  }
 
   // Makes queued and future writes answer NotFound (the map left the registry).
   void MarkDeleted() { deleted_.store(true, std::memory_order_release); }
+  // Makes queued and future writes answer Unavailable (the map was evicted from memory: a
+  // retry reaches its reloaded copy).
+  void MarkEvicted() { evicted_.store(true, std::memory_order_release); }
 
  private:
-  struct KeptFrame {
-    std::shared_ptr<const v1::Frame> frame;  // as received (encoded)
-    perception::CameraPose pose;             // pose it is integrated with now
-  };
-
   // kAppend: a new write, appended to the journal before it is applied; kReplay: a write
-  // read back from the journal.
+  // read back from the journal at `position`.
   enum class Source { kAppend, kReplay };
+  struct Capture;
   // Worker thread only.
   absl::StatusOr<v1::FrameAck> IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
-                                                 Source source);
+                                                 Source source, uint64_t position);
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(const v1::UpdatePosesRequest& request,
-                                                              Source source);
-  // Appends one record to the store (OK without a store). The store's error otherwise,
-  // prefixed "journal: ": the write must then not be applied or acknowledged.
-  absl::Status Journal(storage::JournalRecord::Kind kind, const google::protobuf::Message& m);
-  void KeepFrame(uint64_t sequence, KeptFrame kept);
+                                                              Source source, uint64_t position);
+  absl::StatusOr<std::shared_ptr<const v1::Frame>> FrameOf(const FrameIndex::Entry& entry,
+                                                           uint64_t sequence,
+                                                           const std::string& field);
+  absl::Status ReplayOnWorker(const storage::JournalRecord& record);
+  std::unique_ptr<Capture> CaptureOnWorker();
+  absl::Status LoadSnapshotOnWorker();
+  // Appends one record to the store; returns its position (0 without a store). The
+  // store's error otherwise, prefixed "journal: ": the write must then not be applied or
+  // acknowledged.
+  absl::StatusOr<uint64_t> Journal(storage::JournalRecord::Kind kind, const std::string& bytes);
   // Stages `frame` (with frame.pose) in every stage; the first stage's counts.
   perception::IntegrationStats StageFrame(const perception::RgbdFrame& frame,
                                           FrameStage::Sign sign);
   // Applies every stage's staged changes under the exclusive lock; `frames_added` is added
-  // to the frame counter in the same snapshot.
-  WriteStats ApplyStages(uint64_t frames_added);
-  absl::Status MapGone() const;
+  // to the frame counter and `position` becomes the state's journal position, in the same
+  // snapshot.
+  WriteStats ApplyStages(uint64_t frames_added, uint64_t position);
+  absl::Status Refused() const;  // NotFound after MarkDeleted, Unavailable after MarkEvicted
+  std::string RetentionPolicy() const;
 
   const std::string id_;
   const uint64_t incarnation_;
   const Options options_;
   std::atomic<bool> deleted_{false};
-  std::atomic<uint64_t> journal_position_{0};  // last record durable in the store
+  std::atomic<bool> evicted_{false};
+  std::atomic<uint64_t> journal_position_{0};   // last record durable in the store
+  std::atomic<uint64_t> snapshot_position_{0};  // what the last snapshot covers
+  std::atomic<int64_t> snapshot_unix_ms_{0};
+  std::atomic<uint64_t> pruned_position_{0};  // records up to here are pruned
+  std::atomic<uint64_t> journal_bytes_{0};    // frame records kept (mirror of the index's)
+  std::atomic<uint64_t> kept_frame_bytes_{0};
 
   mutable RwLock snapshot_mu_;
   MapState state_ ABSL_GUARDED_BY(snapshot_mu_);
-  size_t kept_bytes_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
 
   // Touched only on the worker thread (tasks of queue_ run one at a time).
-  std::map<uint64_t, KeptFrame> kept_;
-  std::unordered_set<uint64_t> sequences_;
+  FrameIndex index_;
+  uint64_t arrivals_ = 0;  // arrival order of frames in maps without a store
   std::vector<std::unique_ptr<FrameStage>> stages_;  // in order
+
+  std::mutex snapshot_run_mu_;  // one Snapshot() at a time
 
   WorkQueue queue_;  // last: destroyed first, draining tasks while the rest is alive
 };

@@ -69,22 +69,9 @@ absl::Status MapService::Recover() {
       skip(map.status());
       continue;
     }
-    // A record that no longer applies (refused by today's validation) is reported and
-    // skipped; replay goes on.
-    absl::Status replayed =
-        options_.store->ReadJournal(m.id, 0, [&](const storage::JournalRecord& r) {
-          absl::Status s = (*map)->Replay(r);
-          if (!s.ok() && absl::IsDataLoss(s)) return s;
-          if (!s.ok()) {
-            std::fprintf(stderr, "skimapd: map %s: journal record %llu skipped: %s\n",
-                         MapName(m.id).c_str(), static_cast<unsigned long long>(r.position),
-                         s.ToString().c_str());
-          }
-          return absl::OkStatus();
-        });
-    if (!replayed.ok()) {
+    if (absl::Status loaded = (*map)->Load(); !loaded.ok()) {
       (void)registry_.Delete(m.id);
-      skip(replayed);
+      skip(loaded);
     }
   }
   return absl::OkStatus();

@@ -243,7 +243,7 @@ TEST(ObjectServiceTest, DatasetPathsStayUnderTheDatasetRootAndAreNeverEchoedOuts
   std::filesystem::create_directory_symlink("/etc", link);
   v1::TrainObjectFromDatasetRequest r;
   r.set_obj_id(5);
-  for (const std::string outside : {std::string("/etc"), std::string("/nonexistent/secret-dir"),
+  for (const std::string& outside : {std::string("/etc"), std::string("/nonexistent/secret-dir"),
                                     std::string("../../../../../../etc"), root + "/../x",
                                     root + "2", std::string("escape/ssl")}) {
     SCOPED_TRACE(outside);

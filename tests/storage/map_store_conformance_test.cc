@@ -59,7 +59,7 @@ class MapStoreConformanceTest : public ::testing::TestWithParam<Backend> {
   std::vector<JournalRecord> Journal(const std::string& id, uint64_t after = 0) {
     std::vector<JournalRecord> out;
     EXPECT_TRUE(store_
-                    ->ReadJournal(id, after,
+                    ->ReadJournal(id, after, SIZE_MAX,
                                   [&](const JournalRecord& r) {
                                     out.push_back(r);
                                     return absl::OkStatus();
@@ -118,9 +118,25 @@ TEST_P(MapStoreConformanceTest, JournalRecordsKeepTheirOrderPositionsAndBytes) {
   EXPECT_EQ(all[2].kind, JournalRecord::kPoseUpdate);
   EXPECT_EQ(Journal("m", 2).size(), 1u);
   EXPECT_EQ(store_->GetMap("m")->last_position, 3u);
+  // A limit reads a batch; one record by position.
+  size_t batch = 0;
+  ASSERT_TRUE(store_
+                  ->ReadJournal("m", 0, 2,
+                                [&](const JournalRecord&) {
+                                  ++batch;
+                                  return absl::OkStatus();
+                                })
+                  .ok());
+  EXPECT_EQ(batch, 2u);
+  absl::StatusOr<JournalRecord> third = store_->ReadJournalRecord("m", 3);
+  ASSERT_TRUE(third.ok()) << third.status();
+  EXPECT_EQ(third->payload, "p3");
+  EXPECT_EQ(third->kind, JournalRecord::kPoseUpdate);
+  EXPECT_EQ(store_->ReadJournalRecord("m", 9).status().code(), absl::StatusCode::kNotFound);
   // Pruning keeps positions: new records continue after the last one.
   ASSERT_TRUE(store_->PruneJournal("m", 2).ok());
   EXPECT_EQ(Journal("m").size(), 1u);
+  EXPECT_EQ(store_->ReadJournalRecord("m", 1).status().code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(*store_->AppendJournal("m", {{JournalRecord::kFrame, "f4"}}), 4u);
 }
 
@@ -214,7 +230,7 @@ TEST_P(MapStoreConformanceTest, AFailedWriteChangesNothingAndWritesSucceedAfterI
     }
     std::vector<std::string> journal;
     ASSERT_TRUE(faulty
-                    .ReadJournal("m", 0,
+                    .ReadJournal("m", 0, SIZE_MAX,
                                  [&](const JournalRecord& r) {
                                    journal.push_back(r.payload);
                                    return absl::OkStatus();
