@@ -2,7 +2,8 @@
 //
 //   skimapd [--address=127.0.0.1:50051 [--insecure]] [--data_dir=out/skimapd-data]
 //           [--worker_threads=2] [--max_message_mb=80] [--max_in_flight=8]
-//           [--queue_capacity=64] [--dataset_root=DIR]
+//           [--queue_capacity=64] [--dataset_root=DIR] [--lazy_load]
+//           [--memory_budget_mb=0] [--snapshot_interval_s=10] [--journal_retain_mb=1024]
 //
 // Serves skimap.v1.MapService, skimap.v1.ObjectService (its object database is
 // DATA_DIR/objects.sqlite, loaded at start), grpc.health.v1.Health and server reflection.
@@ -30,11 +31,22 @@ ABSL_FLAG(std::string, dataset_root, "",
           "directory under which TrainObjectFromDataset may read datasets; empty: off");
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
           "directory for server data (created if missing): maps.sqlite holds every map (frame "
-          "journal, reloaded at start), objects.sqlite the object database");
+          "journal and snapshots, reloaded at start), objects.sqlite the object database");
 ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
 ABSL_FLAG(int, queue_capacity, 64, "queued writes per map before RESOURCE_EXHAUSTED");
+ABSL_FLAG(bool, lazy_load, false,
+          "load each stored map on its first use instead of all of them at start");
+ABSL_FLAG(int64_t, memory_budget_mb, 0,
+          "loaded maps beyond this many MiB are snapshotted and evicted, least recently used "
+          "first, and reloaded on their next use; 0 = no limit");
+ABSL_FLAG(int, snapshot_interval_s, 10,
+          "seconds between background snapshots of maps with new journal records");
+ABSL_FLAG(int64_t, journal_retain_mb, 1024,
+          "retention policy: once snapshotted, the oldest frame records of a map are pruned "
+          "from the journal while its frame records exceed this many MiB (UpdatePoses on a "
+          "pruned frame answers FAILED_PRECONDITION)");
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("SkiMap map server: skimapd [--address=host:port] ...");
@@ -57,7 +69,9 @@ int main(int argc, char** argv) {
   }
   const int max_message_mb = absl::GetFlag(FLAGS_max_message_mb);
   if (max_message_mb < 1 || max_message_mb > 1024 || absl::GetFlag(FLAGS_worker_threads) < 0 ||
-      absl::GetFlag(FLAGS_max_in_flight) < 1 || absl::GetFlag(FLAGS_queue_capacity) < 1) {
+      absl::GetFlag(FLAGS_max_in_flight) < 1 || absl::GetFlag(FLAGS_queue_capacity) < 1 ||
+      absl::GetFlag(FLAGS_memory_budget_mb) < 0 || absl::GetFlag(FLAGS_snapshot_interval_s) < 1 ||
+      absl::GetFlag(FLAGS_journal_retain_mb) < 0) {
     std::fprintf(stderr, "skimapd: flag out of range (see --help)\n");
     return 2;
   }
@@ -69,6 +83,10 @@ int main(int argc, char** argv) {
   options.service.max_frame_bytes = size_t(options.max_message_bytes) / 5 * 4;
   options.service.worker_threads = absl::GetFlag(FLAGS_worker_threads);
   options.service.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);
+  options.service.lazy_load = absl::GetFlag(FLAGS_lazy_load);
+  options.service.memory_budget_bytes = uint64_t(absl::GetFlag(FLAGS_memory_budget_mb)) << 20;
+  options.service.snapshot_interval = absl::Seconds(absl::GetFlag(FLAGS_snapshot_interval_s));
+  options.service.journal_retain_bytes = uint64_t(absl::GetFlag(FLAGS_journal_retain_mb)) << 20;
   options.grpc.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
   options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
   options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();

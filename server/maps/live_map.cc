@@ -428,7 +428,11 @@ std::unique_ptr<LiveMap::Capture> LiveMap::CaptureOnWorker() {
   }
   c->buckets = index_.TakeDirty();
   for (int64_t b : c->buckets) {
-    c->index_chunks.push_back({{kFramesVolume, b, 0, 0}, index_.EncodeBucket(b)});
+    storage::Chunk chunk;
+    chunk.key.volume = kFramesVolume;
+    chunk.key.x = b;
+    chunk.bytes = index_.EncodeBucket(b);
+    c->index_chunks.push_back(std::move(chunk));
   }
   c->prune_upto = index_.RetentionCut(c->position, options_.journal_retain_bytes);
   return c;

@@ -117,7 +117,11 @@ class LiveMap {
   void MarkDeleted() { deleted_.store(true, std::memory_order_release); }
   // Makes queued and future writes answer Unavailable (the map was evicted from memory: a
   // retry reaches its reloaded copy).
-  void MarkEvicted() { evicted_.store(true, std::memory_order_release); }
+  void MarkEvicted(bool evicted = true) { evicted_.store(evicted, std::memory_order_release); }
+  // Returns once the writes queued before the call have run.
+  void Drain() {
+    queue_.Run([] {});
+  }
 
  private:
   // kAppend: a new write, appended to the journal before it is applied; kReplay: a write

@@ -1,12 +1,27 @@
 #include "server/maps/map_registry.h"
 
+#include <algorithm>
+#include <cstdio>
+
 #include "absl/strings/str_cat.h"
 
 namespace skimap::server {
+namespace {
 
-absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Create(const std::string& id,
-                                                             const MapConfig& config) {
-  WriterLock lock(&mu_);
+absl::Status NoMap(const std::string& id) {
+  return absl::NotFoundError(absl::StrCat("map ", MapName(id), " not found"));
+}
+
+// Load errors that a retry cannot fix stay with the map until it is deleted.
+bool Permanent(const absl::Status& s) {
+  return absl::IsDataLoss(s) || absl::IsFailedPrecondition(s) || absl::IsInvalidArgument(s);
+}
+
+uint64_t MemoryOf(const v1::MapStats& s) { return s.memory_bytes() + s.kept_frame_bytes(); }
+
+}  // namespace
+
+absl::Status MapRegistry::CheckRoom(const std::string& id) const {
   if (maps_.contains(id)) {
     return absl::AlreadyExistsError(absl::StrCat("map ", MapName(id), " already exists"));
   }
@@ -14,28 +29,76 @@ absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Create(const std::string& 
     return absl::ResourceExhaustedError(
         absl::StrCat("at most ", options_.max_maps, " maps per server"));
   }
+  return absl::OkStatus();
+}
+
+std::shared_ptr<LiveMap> MapRegistry::NewMap(const std::string& id, const MapConfig& config) const {
   LiveMap::Options options = options_.map_defaults;
   options.config = config;
-  auto map = std::make_shared<LiveMap>(id, options);
-  maps_.emplace(id, map);
+  return std::make_shared<LiveMap>(id, options);
+}
+
+absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Create(const std::string& id,
+                                                             const MapConfig& config) {
+  WriterLock lock(&mu_);
+  if (absl::Status s = CheckRoom(id); !s.ok()) return s;
+  std::shared_ptr<LiveMap> map = NewMap(id, config);
+  maps_[id] = Entry{.config = config, .map = map, .last_used = ++clock_};
   return map;
 }
 
-absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Get(const std::string& id) const {
+absl::Status MapRegistry::AddStored(const std::string& id, const MapConfig& config) {
   WriterLock lock(&mu_);
-  auto it = maps_.find(id);
-  if (it == maps_.end()) {
-    return absl::NotFoundError(absl::StrCat("map ", MapName(id), " not found"));
-  }
-  return it->second;
+  if (absl::Status s = CheckRoom(id); !s.ok()) return s;
+  maps_[id] = Entry{.config = config};
+  return absl::OkStatus();
 }
 
-std::vector<std::shared_ptr<LiveMap>> MapRegistry::List(const std::string& after,
-                                                        size_t limit) const {
-  std::vector<std::shared_ptr<LiveMap>> out;
+absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Get(const std::string& id) {
+  std::shared_ptr<std::mutex> load_mu;
+  MapConfig config;
+  {
+    WriterLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end()) return NoMap(id);
+    Entry& e = it->second;
+    e.last_used = ++clock_;
+    if (e.map != nullptr) return e.map;
+    if (!e.error.ok()) return e.error;
+    load_mu = e.load_mu;
+    config = e.config;
+  }
+  std::lock_guard<std::mutex> one_load(*load_mu);
+  {
+    ReaderLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end()) return NoMap(id);
+    if (it->second.map != nullptr) return it->second.map;  // loaded while we waited
+  }
+  std::shared_ptr<LiveMap> map = NewMap(id, config);
+  absl::Status loaded = map->Load();
+  if (!loaded.ok()) {
+    loaded = absl::Status(
+        loaded.code(), absl::StrCat("map ", MapName(id), " cannot be loaded: ", loaded.message()));
+    std::fprintf(stderr, "skimapd: %s\n", loaded.ToString().c_str());
+  }
   WriterLock lock(&mu_);
+  auto it = maps_.find(id);
+  if (it == maps_.end()) return NoMap(id);  // deleted while loading
+  if (!loaded.ok()) {
+    if (Permanent(loaded)) it->second.error = loaded;
+    return loaded;
+  }
+  it->second.map = map;
+  return map;
+}
+
+std::vector<MapRegistry::Listed> MapRegistry::List(const std::string& after, size_t limit) const {
+  std::vector<Listed> out;
+  ReaderLock lock(&mu_);
   for (auto it = maps_.upper_bound(after); it != maps_.end() && out.size() < limit; ++it) {
-    out.push_back(it->second);
+    const Entry& e = it->second;
+    out.push_back({it->first, e.config, e.map, e.last_stats, e.error});
   }
   return out;
 }
@@ -45,14 +108,74 @@ absl::Status MapRegistry::Delete(const std::string& id) {
   {
     WriterLock lock(&mu_);
     auto it = maps_.find(id);
-    if (it == maps_.end()) {
-      return absl::NotFoundError(absl::StrCat("map ", MapName(id), " not found"));
-    }
-    doomed = std::move(it->second);
+    if (it == maps_.end()) return NoMap(id);
+    doomed = std::move(it->second.map);
     maps_.erase(it);
   }
-  doomed->MarkDeleted();
+  if (doomed != nullptr) doomed->MarkDeleted();
   return absl::OkStatus();  // `doomed` released outside the lock
+}
+
+uint64_t MapRegistry::LoadedBytes() const {
+  uint64_t total = 0;
+  ReaderLock lock(&mu_);
+  for (const auto& [id, e] : maps_) {
+    if (e.map != nullptr) total += MemoryOf(e.map->Stats());
+  }
+  return total;
+}
+
+void MapRegistry::Maintain(uint64_t min_records) {
+  struct Loaded {
+    std::string id;
+    std::shared_ptr<LiveMap> map;
+    uint64_t last_used;
+    uint64_t bytes;
+  };
+  std::vector<Loaded> loaded;
+  {
+    ReaderLock lock(&mu_);
+    for (const auto& [id, e] : maps_) {
+      if (e.map != nullptr) loaded.push_back({id, e.map, e.last_used, 0});
+    }
+  }
+  uint64_t total = 0;
+  for (Loaded& m : loaded) {
+    if (m.map->records_since_snapshot() >= min_records) {
+      if (absl::Status s = m.map->Snapshot(); !s.ok()) {
+        std::fprintf(stderr, "skimapd: %s\n", s.ToString().c_str());
+      }
+    }
+    m.bytes = MemoryOf(m.map->Stats());
+    total += m.bytes;
+  }
+  if (options_.memory_budget_bytes == 0 || options_.map_defaults.store == nullptr) return;
+  std::sort(loaded.begin(), loaded.end(),
+            [](const Loaded& a, const Loaded& b) { return a.last_used < b.last_used; });
+  // The most recently used map stays: evicting it would only load it again.
+  for (size_t i = 0; i + 1 < loaded.size() && total > options_.memory_budget_bytes; ++i) {
+    Evict(loaded[i].id, loaded[i].map);
+    total -= loaded[i].bytes;
+  }
+}
+
+void MapRegistry::Evict(const std::string& id, std::shared_ptr<LiveMap> map) {
+  map->MarkEvicted();  // new writes: Unavailable; running ones finish in Drain
+  map->Drain();
+  if (absl::Status s = map->Snapshot(); !s.ok()) {
+    // Keep it: a reload would have to replay what the snapshot missed from a failing store.
+    map->MarkEvicted(false);
+    std::fprintf(stderr, "skimapd: map %s not evicted: %s\n", MapName(id).c_str(),
+                 s.ToString().c_str());
+    return;
+  }
+  v1::MapStats stats = map->Stats();
+  stats.set_loaded(false);
+  WriterLock lock(&mu_);
+  auto it = maps_.find(id);
+  if (it == maps_.end() || it->second.map != map) return;
+  it->second.map = nullptr;
+  it->second.last_stats = std::move(stats);
 }
 
 }  // namespace skimap::server

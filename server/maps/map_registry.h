@@ -1,12 +1,30 @@
-// MapRegistry: the live maps of the service by id.
+// MapRegistry: every map of the service by id, loaded in memory or on disk only.
 //
-// Thread safety: thread safe. Returned maps are shared: a map removed by Delete stays
-// alive until its last user lets go, and its queued writes answer NotFound.
+//   MapRegistry registry({.map_defaults = {.store = store}, .memory_budget_bytes = 8 << 30});
+//   registry.AddStored("kitchen", config);             // known, loaded on first use
+//   absl::StatusOr<std::shared_ptr<LiveMap>> m = registry.Get("kitchen");  // loads it
+//   registry.Maintain();                                // snapshots, evicts beyond the budget
+//
+// Loading: a map registered by AddStored (or evicted) is loaded (snapshot + journal tail,
+// LiveMap::Load) by the first Get that needs it; concurrent Gets wait for that one load. A
+// map whose data is corrupt or from a newer server keeps answering that error (naming the
+// map and the cause) until it is deleted; the other maps are not affected.
+//
+// Eviction: Maintain() snapshots maps with unsnapshotted journal records, then, while the
+// loaded maps' memory exceeds memory_budget_bytes, evicts the least recently used loaded
+// map except the most recent one: its new writes answer Unavailable (retry), the writes
+// already running finish, a snapshot is written, and it leaves memory; the next Get loads
+// it again. Nothing journaled is lost: whatever the snapshot does not cover is replayed.
+//
+// Thread safety: thread safe. Returned maps are shared: a map removed by Delete stays alive
+// until its last user lets go, and its queued writes answer NotFound.
 #ifndef SERVER_MAPS_MAP_REGISTRY_H_
 #define SERVER_MAPS_MAP_REGISTRY_H_
 
+#include <cstdint>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -20,26 +38,60 @@ namespace skimap::server {
 class MapRegistry {
  public:
   struct Options {
-    LiveMap::Options map_defaults;  // pool, queue capacity, kept-frame budget
+    LiveMap::Options map_defaults;  // pool, queue capacity, store, retention
     size_t max_maps = 1000;
+    uint64_t memory_budget_bytes = 0;  // loaded maps' memory; 0 = no limit
   };
+  // One map as listed: `map` when loaded; otherwise its stats when it was evicted
+  // (loaded = false) and the error of its last load, if any.
+  struct Listed {
+    std::string id;
+    MapConfig config;
+    std::shared_ptr<LiveMap> map;
+    v1::MapStats last_stats;
+    absl::Status error;
+  };
+
   explicit MapRegistry(const Options& options) : options_(options) {}
 
-  // AlreadyExists if `id` is taken; ResourceExhausted beyond max_maps.
-  // REQUIRES: ValidateMapId(id) is OK.
+  // A new empty map, loaded. AlreadyExists if `id` is taken; ResourceExhausted beyond
+  // max_maps. REQUIRES: ValidateMapId(id) is OK.
   absl::StatusOr<std::shared_ptr<LiveMap>> Create(const std::string& id, const MapConfig& config);
-  // NotFound if there is no map `id`.
-  absl::StatusOr<std::shared_ptr<LiveMap>> Get(const std::string& id) const;
-  // Up to `limit` maps with id > `after`, ordered by id.
-  std::vector<std::shared_ptr<LiveMap>> List(const std::string& after, size_t limit) const;
+  // Registers a map of the store without loading it. AlreadyExists / ResourceExhausted.
+  absl::Status AddStored(const std::string& id, const MapConfig& config);
+  // The loaded map `id`, loading it first if needed. NotFound if there is no map `id`;
+  // the load's error (DataLoss, FailedPrecondition, Unavailable, ...) naming the map.
+  absl::StatusOr<std::shared_ptr<LiveMap>> Get(const std::string& id);
+  // Up to `limit` maps with id > `after`, ordered by id; none is loaded by listing.
+  std::vector<Listed> List(const std::string& after, size_t limit) const;
   // Removes map `id` (NotFound if absent). Blocks until its queued writes are answered
   // when this was the last reference.
   absl::Status Delete(const std::string& id);
 
+  // Snapshots every loaded map with journal records no snapshot covers (all of them when
+  // `min_records` is 1) and evicts beyond the memory budget (see above). Errors are
+  // reported on stderr and retried next time.
+  void Maintain(uint64_t min_records = 1);
+  // Bytes held by the loaded maps.
+  uint64_t LoadedBytes() const;
+
  private:
+  struct Entry {
+    MapConfig config;
+    std::shared_ptr<LiveMap> map;  // null while on disk only
+    v1::MapStats last_stats;
+    absl::Status error;  // a load failure that a retry cannot fix (DataLoss, ...)
+    uint64_t last_used = 0;
+    std::shared_ptr<std::mutex> load_mu = std::make_shared<std::mutex>();  // one load at a time
+  };
+  absl::Status CheckRoom(const std::string& id) const ABSL_SHARED_LOCKS_REQUIRED(mu_);
+  std::shared_ptr<LiveMap> NewMap(const std::string& id, const MapConfig& config) const;
+  void Evict(const std::string& id, std::shared_ptr<LiveMap> map);
+
   const Options options_;
   mutable RwLock mu_;
-  std::map<std::string, std::shared_ptr<LiveMap>> maps_ ABSL_GUARDED_BY(mu_);
+  std::map<std::string, Entry> maps_ ABSL_GUARDED_BY(mu_);
+  uint64_t clock_ ABSL_GUARDED_BY(mu_) = 0;  // LRU ticks
 };
 
 }  // namespace skimap::server

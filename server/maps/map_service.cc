@@ -11,21 +11,15 @@
 namespace skimap::server {
 namespace {
 
-v1::Map Describe(const LiveMap& map) {
-  v1::Map out;
-  out.set_name(MapName(map.id()));
-  *out.mutable_options() = ToProto(map.config());
-  *out.mutable_stats() = map.Stats();
-  return out;
-}
-
 MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* pool) {
   MapRegistry::Options r;
   r.map_defaults.pool = pool;
   r.map_defaults.queue_capacity = o.queue_capacity;
   r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
   r.map_defaults.store = o.store;
+  r.map_defaults.journal_retain_bytes = o.journal_retain_bytes;
   r.max_maps = o.max_maps;
+  r.memory_budget_bytes = o.memory_budget_bytes;
   return r;
 }
 
@@ -36,7 +30,57 @@ MapService::MapService(const Options& options)
       pool_(std::make_unique<ThreadPool>(options.worker_threads)),
       registry_(RegistryOptions(options, pool_.get())) {}
 
-MapService::~MapService() = default;
+MapService::~MapService() {
+  if (maintenance_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(maintenance_mu_);
+      stopping_ = true;
+    }
+    maintenance_cv_.notify_all();
+    maintenance_.join();
+  }
+  // A last snapshot makes the next start replay nothing.
+  if (options_.store != nullptr) SnapshotAll();
+}
+
+void MapService::MaintenanceLoop() {
+  const absl::Duration tick = std::min(options_.snapshot_interval, absl::Seconds(1));
+  absl::Time last_full = absl::Now();
+  std::unique_lock<std::mutex> lock(maintenance_mu_);
+  while (!maintenance_cv_.wait_for(lock, absl::ToChronoMilliseconds(tick),
+                                   [this] { return stopping_; })) {
+    lock.unlock();
+    const bool due = absl::Now() - last_full >= options_.snapshot_interval;
+    registry_.Maintain(due ? 1 : options_.snapshot_records);
+    if (due) last_full = absl::Now();
+    lock.lock();
+  }
+}
+
+v1::Map MapService::Describe(const MapRegistry::Listed& listed) const {
+  v1::Map out;
+  out.set_name(MapName(listed.id));
+  *out.mutable_options() = ToProto(listed.config);
+  if (listed.map != nullptr) {
+    *out.mutable_stats() = listed.map->Stats();
+    return out;
+  }
+  // On disk only: the stats it had when evicted, and what the store says is durable.
+  v1::MapStats& stats = *out.mutable_stats() = listed.last_stats;
+  stats.set_loaded(false);
+  stats.set_persistent(true);
+  if (options_.store != nullptr) {
+    if (absl::StatusOr<storage::StoredMap> m = options_.store->GetMap(listed.id); m.ok()) {
+      stats.set_journal_position(m->last_position);
+      stats.set_snapshot_position(m->snapshot_position);
+      if (m->snapshot_unix_ms > 0) {
+        stats.mutable_snapshot_time()->set_seconds(m->snapshot_unix_ms / 1000);
+        stats.mutable_snapshot_time()->set_nanos(int32_t(m->snapshot_unix_ms % 1000) * 1000000);
+      }
+    }
+  }
+  return out;
+}
 
 absl::StatusOr<std::shared_ptr<LiveMap>> MapService::FindMap(const std::string& name,
                                                              const char* field) const {
@@ -64,16 +108,13 @@ absl::Status MapService::Recover() {
       skip(config.status());
       continue;
     }
-    absl::StatusOr<std::shared_ptr<LiveMap>> map = registry_.Create(m.id, *config);
-    if (!map.ok()) {
-      skip(map.status());
+    if (absl::Status s = registry_.AddStored(m.id, *config); !s.ok()) {
+      skip(s);
       continue;
     }
-    if (absl::Status loaded = (*map)->Load(); !loaded.ok()) {
-      (void)registry_.Delete(m.id);
-      skip(loaded);
-    }
+    if (!options_.lazy_load) (void)registry_.Get(m.id);  // an error stays with the map
   }
+  maintenance_ = std::thread([this] { MaintenanceLoop(); });
   return absl::OkStatus();
 }
 
@@ -92,13 +133,13 @@ absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& reques
                                                       " not created: ", stored.message()));
     }
   }
-  return Describe(**map);
+  return Describe({.id = request.map_id(), .config = *config, .map = *map});
 }
 
 absl::StatusOr<v1::Map> MapService::GetMap(const v1::GetMapRequest& request) const {
   absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.name(), "name");
   if (!map.ok()) return map.status();
-  return Describe(**map);
+  return Describe({.id = (*map)->id(), .config = (*map)->config(), .map = *map});
 }
 
 absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
@@ -114,11 +155,10 @@ absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
     after = *id;
   }
   const size_t limit = request.page_size() == 0 ? 50 : request.page_size();
-  std::vector<std::shared_ptr<LiveMap>> maps = registry_.List(after, limit + 1);
+  std::vector<MapRegistry::Listed> maps = registry_.List(after, limit + 1);
   v1::ListMapsResponse response;
-  for (size_t i = 0; i < maps.size() && i < limit; ++i) *response.add_maps() = Describe(*maps[i]);
-  if (maps.size() > limit)
-    response.set_next_page_token(EncodePageToken(query, maps[limit - 1]->id()));
+  for (size_t i = 0; i < maps.size() && i < limit; ++i) *response.add_maps() = Describe(maps[i]);
+  if (maps.size() > limit) response.set_next_page_token(EncodePageToken(query, maps[limit - 1].id));
   return response;
 }
 

@@ -11,9 +11,13 @@
 #ifndef SERVER_MAPS_MAP_SERVICE_H_
 #define SERVER_MAPS_MAP_SERVICE_H_
 
+#include <condition_variable>
 #include <memory>
+#include <mutex>
+#include <thread>
 
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
 #include "server/maps/map_registry.h"
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
@@ -36,14 +40,30 @@ class MapService {
     size_t max_reply_bytes = 80 << 20;
     // Where maps persist (not owned; outlives the service). Null: in memory only.
     storage::MapStore* store = nullptr;
+    // With a store: load every stored map at start (Recover), or each on its first use.
+    bool lazy_load = false;
+    // With a store: loaded maps beyond this many bytes are snapshotted and evicted, least
+    // recently used first (map_registry.h); 0 = no limit.
+    uint64_t memory_budget_bytes = 0;
+    // With a store: a background thread snapshots each map whose journal has records no
+    // snapshot covers, at this period, and right away once it has snapshot_records of them.
+    absl::Duration snapshot_interval = absl::Seconds(10);
+    uint64_t snapshot_records = 600;
+    // Retention policy of the journal (LiveMap::Options::journal_retain_bytes).
+    uint64_t journal_retain_bytes = uint64_t{1} << 30;
   };
   explicit MapService(const Options& options);
   ~MapService();
 
-  // Loads every map of options.store: creates it with its stored options and replays its
-  // journal. A map that cannot be loaded is reported on stderr and skipped; the others
-  // load. REQUIRES: called once, before the service takes requests.
+  // Lists every map of options.store and loads each (its latest snapshot, then the journal
+  // after it), or registers it to load on first use with lazy_load; then starts the
+  // snapshot thread. A map that cannot be loaded answers its error (naming the map and the
+  // cause) to every request for it; the others load and serve. Errors: the store's, if it
+  // cannot list the maps. REQUIRES: called once, before the service takes requests.
   absl::Status Recover();
+  // Snapshots every map with journal records no snapshot covers (blocking). Also run by the
+  // snapshot thread and at destruction.
+  void SnapshotAll() { registry_.Maintain(1); }
 
   absl::StatusOr<v1::Map> CreateMap(const v1::CreateMapRequest& request);
   absl::StatusOr<v1::Map> GetMap(const v1::GetMapRequest& request) const;
@@ -69,9 +89,17 @@ class MapService {
   absl::StatusOr<std::shared_ptr<LiveMap>> FindMap(const std::string& name,
                                                    const char* field) const;
 
+  v1::Map Describe(const MapRegistry::Listed& listed) const;
+  void MaintenanceLoop();
+
   const Options options_;
   std::unique_ptr<ThreadPool> pool_;
-  MapRegistry registry_;
+  mutable MapRegistry registry_;  // mutable: a const query may load a map
+
+  std::mutex maintenance_mu_;
+  std::condition_variable maintenance_cv_;
+  bool stopping_ = false;  // guarded by maintenance_mu_
+  std::thread maintenance_;
 };
 
 }  // namespace skimap::server

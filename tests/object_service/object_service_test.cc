@@ -244,8 +244,8 @@ TEST(ObjectServiceTest, DatasetPathsStayUnderTheDatasetRootAndAreNeverEchoedOuts
   v1::TrainObjectFromDatasetRequest r;
   r.set_obj_id(5);
   for (const std::string& outside : {std::string("/etc"), std::string("/nonexistent/secret-dir"),
-                                    std::string("../../../../../../etc"), root + "/../x",
-                                    root + "2", std::string("escape/ssl")}) {
+                                     std::string("../../../../../../etc"), root + "/../x",
+                                     root + "2", std::string("escape/ssl")}) {
     SCOPED_TRACE(outside);
     r.set_dataset_path(outside);
     const absl::Status status = c->TrainObjectFromDataset(r).status();
