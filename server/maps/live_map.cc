@@ -87,7 +87,7 @@ std::string LiveMap::RetentionPolicy() const {
   return absl::StrCat(
       "retention policy: once snapshotted, the oldest frame records are pruned "
       "while the map's frame records exceed ",
-      options_.journal_retain_bytes, " bytes (--journal_retain_bytes)");
+      options_.journal_retain_bytes, " bytes (skimapd --journal_retain_mb)");
 }
 
 void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done) {
