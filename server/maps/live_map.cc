@@ -474,6 +474,10 @@ absl::Status LiveMap::Snapshot() {
                           absl::StrCat("journal of ", MapName(id_), " not pruned: ", s.message()));
     }
     pruned_position_.store(c->prune_upto, std::memory_order_release);
+    (void)queue_.Submit([this, cut = c->prune_upto] {
+      index_.MarkPruned(cut);
+      journal_bytes_.store(index_.journal_bytes(), std::memory_order_relaxed);
+    });
   }
   return absl::OkStatus();
 }

@@ -112,7 +112,12 @@ absl::Status MapRegistry::Delete(const std::string& id) {
     doomed = std::move(it->second.map);
     maps_.erase(it);
   }
-  if (doomed != nullptr) doomed->MarkDeleted();
+  if (doomed != nullptr) {
+    // Writes already past their check finish before the caller deletes the map's data:
+    // none can then reach a new map created under the same id.
+    doomed->MarkDeleted();
+    doomed->Drain();
+  }
   return absl::OkStatus();  // `doomed` released outside the lock
 }
 

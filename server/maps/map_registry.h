@@ -65,7 +65,7 @@ class MapRegistry {
   // Up to `limit` maps with id > `after`, ordered by id; none is loaded by listing.
   std::vector<Listed> List(const std::string& after, size_t limit) const;
   // Removes map `id` (NotFound if absent). Blocks until its queued writes are answered
-  // when this was the last reference.
+  // (NotFound; a write already running finishes first).
   absl::Status Delete(const std::string& id);
 
   // Snapshots every loaded map with journal records no snapshot covers (all of them when
