@@ -118,6 +118,8 @@ class SkimapdProcess {
   }
 
   const std::string& address() const { return address_; }
+  // The --data_dir the server runs with (DATA_DIR/maps.sqlite...); empty before Start().
+  std::string data_dir() const { return data_dir_.empty() ? "" : data_dir_ + "/data"; }
 
  private:
   static inline int count_ = 0;
