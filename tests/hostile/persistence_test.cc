@@ -235,10 +235,9 @@ TEST(PersistenceTest, ACorruptMapAnswersDataLossNamingItAndTheOthersServe) {
   }
   const VoxelSet good = Voxels(*client, "maps/good");
   ASSERT_EQ(server.Stop(), 0);  // a clean stop snapshots every map
-  // One flipped byte in a chunk, a truncated chunk, a chunk of a newer format version.
+  // Four changed bytes in a chunk, a truncated chunk, a chunk of a newer format version.
   Damage(server.data_dir(),
-         "UPDATE chunks SET bytes = substr(bytes, 1, 40) || "
-         "char((unicode(substr(bytes, 41, 1)) + 1) % 256) || substr(bytes, 42) "
+         "UPDATE chunks SET bytes = substr(bytes, 1, 40) || x'A5C3A5C3' || substr(bytes, 45) "
          "WHERE map = 'flipped' AND volume = 'rgb' AND rowid = (SELECT min(rowid) FROM chunks "
          "WHERE map = 'flipped' AND volume = 'rgb')");
   Damage(server.data_dir(),

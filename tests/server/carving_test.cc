@@ -77,7 +77,9 @@ TEST_F(CarvingTest, CarvingFreesCellsBetweenCameraAndWallThatShowNoFloor) {
   }
   // Carving never frees a cell with a surface in the band.
   for (size_t i = 0; i < plain.data().size(); ++i) {
-    if (int8_t(plain.data()[i]) == 100) ASSERT_EQ(int8_t(carved.data()[i]), 100) << i;
+    if (int8_t(plain.data()[i]) == 100) {
+      ASSERT_EQ(int8_t(carved.data()[i]), 100) << i;
+    }
   }
   auto info = client_->GetMap("maps/carved");
   ASSERT_TRUE(info.ok());

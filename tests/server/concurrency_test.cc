@@ -153,7 +153,9 @@ TEST(MapServiceConcurrencyTest, ReadersSeeTheVoxelSetOfAWholeNumberOfFrames) {
   // One writer with two frames in flight: the map integrates them in order.
   std::vector<std::future<absl::StatusOr<v1::FrameAck>>> acks;
   for (int i = 0; i < kFrames; ++i) {
-    if (i >= 2) ASSERT_TRUE(acks[i - 2].get().ok());
+    if (i >= 2) {
+      ASSERT_TRUE(acks[i - 2].get().ok());
+    }
     auto promise = std::make_shared<std::promise<absl::StatusOr<v1::FrameAck>>>();
     acks.push_back(promise->get_future());
     service.IntegrateFrame(SceneFrame("maps/ref", i),
