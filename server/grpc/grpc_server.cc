@@ -23,7 +23,9 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<GrpcServer> s(new GrpcServer());
   MapService::Options service = options.service;
-  if (!options.maps_db_path.empty()) {
+  if (options.map_store != nullptr) {
+    service.store = options.map_store;
+  } else if (!options.maps_db_path.empty()) {
     absl::StatusOr<std::unique_ptr<storage::SqliteMapStore>> store =
         storage::SqliteMapStore::Open(options.maps_db_path);
     if (!store.ok()) {

@@ -38,6 +38,9 @@ class GrpcServer {
     // update is journaled before its ack and the maps are reloaded at start. "" keeps maps
     // in memory only.
     std::string maps_db_path;
+    // Or a store the caller owns (outlives the server), e.g. another backend or a test's
+    // fault-injecting wrapper; takes precedence over maps_db_path.
+    storage::MapStore* map_store = nullptr;
     GrpcMapService::Options grpc;
     // The object service; objects.db_path "" keeps its database in memory only.
     ObjectService::Options objects;
