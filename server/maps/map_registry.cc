@@ -104,6 +104,16 @@ std::vector<MapRegistry::Listed> MapRegistry::List(const std::string& after, siz
 }
 
 absl::Status MapRegistry::Delete(const std::string& id) {
+  std::shared_ptr<std::mutex> load_mu;
+  {
+    ReaderLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end()) return NoMap(id);
+    load_mu = it->second.load_mu;
+  }
+  // Not while the map loads or leaves memory: its snapshot must not reach a new map
+  // created under the same id.
+  std::lock_guard<std::mutex> no_load(*load_mu);
   std::shared_ptr<LiveMap> doomed;
   {
     WriterLock lock(&mu_);
@@ -165,21 +175,39 @@ void MapRegistry::Maintain(uint64_t min_records) {
 }
 
 void MapRegistry::Evict(const std::string& id, std::shared_ptr<LiveMap> map) {
+  // Unpublish first, holding the map's load mutex: a Get from now on waits for the
+  // eviction to finish and then loads the map again; only writes that found the map
+  // before answer Unavailable.
+  std::shared_ptr<std::mutex> load_mu;
+  {
+    WriterLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end() || it->second.map != map) return;
+    load_mu = it->second.load_mu;
+  }
+  std::lock_guard<std::mutex> no_load(*load_mu);
+  {
+    WriterLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end() || it->second.map != map) return;
+    it->second.map = nullptr;
+  }
   map->MarkEvicted();  // new writes: Unavailable; running ones finish in Drain
   map->Drain();
-  if (absl::Status s = map->Snapshot(); !s.ok()) {
-    // Keep it: a reload would have to replay what the snapshot missed from a failing store.
-    map->MarkEvicted(false);
-    std::fprintf(stderr, "skimapd: map %s not evicted: %s\n", MapName(id).c_str(),
-                 s.ToString().c_str());
-    return;
-  }
+  absl::Status s = map->Snapshot();
   v1::MapStats stats = map->Stats();
   stats.set_loaded(false);
   WriterLock lock(&mu_);
   auto it = maps_.find(id);
-  if (it == maps_.end() || it->second.map != map) return;
-  it->second.map = nullptr;
+  if (it == maps_.end()) return;  // deleted meanwhile
+  if (!s.ok()) {
+    // Keep it: a reload would have to replay what the snapshot missed from a failing store.
+    map->MarkEvicted(false);
+    it->second.map = map;
+    std::fprintf(stderr, "skimapd: map %s not evicted: %s\n", MapName(id).c_str(),
+                 s.ToString().c_str());
+    return;
+  }
   it->second.last_stats = std::move(stats);
 }
 

@@ -2,8 +2,10 @@
 // scripts/test.sh). No gRPC here: the core is where the concurrency lives (map workers,
 // the snapshot lock, the registry); gRPC's own threads are not TSan-instrumented.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <filesystem>
 #include <future>
 #include <set>
 #include <string>
@@ -12,6 +14,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/maps/map_service.h"
+#include "storage/sqlite_map_store.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
@@ -242,6 +245,107 @@ TEST(MapServiceConcurrencyTest, DeleteWhileFramesAreQueuedAnswersEveryFrame) {
   del.set_name("maps/doomed");
   ASSERT_TRUE(service.DeleteMap(del).ok());  // the last reference: drains the queue
   EXPECT_EQ(answered.load(), 8);
+}
+
+// Snapshots and evictions (a 1 ms interval, a budget below one map) race two streams and
+// the readers; afterwards every map equals a memory-only map fed the same frames, and a
+// service reloaded from the store equals it too.
+TEST(MapServiceConcurrencyTest, SnapshotsAndEvictionsRaceStreamsAndReaders) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / absl::StrCat("skimap_race_", getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  auto store = storage::SqliteMapStore::Open((dir / "maps.sqlite").string());
+  ASSERT_TRUE(store.ok()) << store.status();
+  const SyntheticCamera camera{
+      .width = 64, .height = 48, .fx = 48, .fy = 48, .cx = 31.5, .cy = 23.5};
+  constexpr int kFrames = 40;
+  const std::vector<std::string> maps = {"left", "right"};
+  auto frame = [&](const std::string& map, int i) {
+    Eigen::Isometry3d pose = DefaultView();
+    pose.translation().y() += 0.04 * i;
+    return std::make_shared<v1::Frame>(MakeFrame("maps/" + map, i, pose, camera));
+  };
+  auto voxels = [](const server::MapService& service, const std::string& map) {
+    v1::GetVoxelsRequest request;
+    request.set_map("maps/" + map);
+    request.set_page_size(100000);
+    request.set_min_voxel_weight(0);
+    auto page = service.GetVoxels(request);
+    EXPECT_TRUE(page.ok()) << page.status();
+    return page.ok() ? page->SerializeAsString() : "";
+  };
+  {
+    server::MapService service({.worker_threads = 2,
+                                .store = store->get(),
+                                .memory_budget_bytes = 1,
+                                .snapshot_interval = absl::Milliseconds(1),
+                                .snapshot_records = 1});
+    ASSERT_TRUE(service.Recover().ok());
+    for (const std::string& m : maps) {
+      v1::CreateMapRequest create;
+      create.set_map_id(m);
+      create.mutable_options()->set_carve_free_space(true);
+      ASSERT_TRUE(service.CreateMap(create).ok());
+    }
+    std::atomic<bool> streaming{true};
+    std::atomic<int> errors{0}, unloaded_seen{0};
+    auto reader = [&] {
+      while (streaming.load()) {
+        auto listed = service.ListMaps(v1::ListMapsRequest());
+        if (!listed.ok()) ++errors;
+        for (const v1::Map& m : listed->maps()) unloaded_seen += m.stats().loaded() ? 0 : 1;
+        for (const std::string& m : maps) {
+          v1::GetOccupancyGridRequest grid;
+          grid.set_map("maps/" + m);
+          if (!service.GetOccupancyGrid(grid).ok()) ++errors;
+        }
+      }
+    };
+    auto writer = [&](const std::string& m) {
+      for (int i = 0; i < kFrames; ++i) {
+        for (int attempt = 0;; ++attempt) {
+          std::promise<absl::StatusOr<v1::FrameAck>> done;
+          service.IntegrateFrame(frame(m, i),
+                                 [&](absl::StatusOr<v1::FrameAck> a) { done.set_value(a); });
+          absl::StatusOr<v1::FrameAck> ack = done.get_future().get();
+          if (ack.ok()) break;
+          // Unavailable while the map leaves memory; the retry reaches its reloaded copy.
+          if (!absl::IsUnavailable(ack.status()) || attempt > 1000) {
+            ADD_FAILURE() << ack.status();
+            break;
+          }
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+      }
+    };
+    std::thread r(reader), w1(writer, maps[0]), w2(writer, maps[1]);
+    w1.join();
+    w2.join();
+    streaming = false;
+    r.join();
+    EXPECT_EQ(errors.load(), 0);
+    EXPECT_GT(unloaded_seen.load(), 0) << "no eviction happened during the streams";
+    server::MapService reference({.worker_threads = 1});
+    for (const std::string& m : maps) {
+      v1::CreateMapRequest create;
+      create.set_map_id(m);
+      create.mutable_options()->set_carve_free_space(true);
+      ASSERT_TRUE(reference.CreateMap(create).ok());
+      for (int i = 0; i < kFrames; ++i) {
+        std::promise<absl::StatusOr<v1::FrameAck>> done;
+        reference.IntegrateFrame(frame(m, i),
+                                 [&](absl::StatusOr<v1::FrameAck> a) { done.set_value(a); });
+        ASSERT_TRUE(done.get_future().get().ok());
+      }
+      EXPECT_TRUE(voxels(service, m) == voxels(reference, m)) << m;
+    }
+    server::MapService reloaded({.worker_threads = 1, .store = store->get()});
+    ASSERT_TRUE(reloaded.Recover().ok());
+    for (const std::string& m : maps) EXPECT_TRUE(voxels(reloaded, m) == voxels(reference, m)) << m;
+  }
+  store->reset();
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
