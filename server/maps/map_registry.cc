@@ -161,10 +161,12 @@ void MapRegistry::Maintain(uint64_t min_records) {
         std::fprintf(stderr, "skimapd: %s\n", s.ToString().c_str());
       }
     }
+  }
+  if (options_.memory_budget_bytes == 0 || options_.map_defaults.store == nullptr) return;
+  for (Loaded& m : loaded) {
     m.bytes = MemoryOf(m.map->Stats());
     total += m.bytes;
   }
-  if (options_.memory_budget_bytes == 0 || options_.map_defaults.store == nullptr) return;
   std::sort(loaded.begin(), loaded.end(),
             [](const Loaded& a, const Loaded& b) { return a.last_used < b.last_used; });
   // The most recently used map stays: evicting it would only load it again.
