@@ -1,0 +1,110 @@
+// Snapshot chunk blobs (server/maps/chunk_codec.h) and frame-index chunks
+// (server/maps/frame_index.h): exact round trips, and every corruption is an error, never
+// a crash or a silently different map.
+#include "server/maps/chunk_codec.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "server/maps/frame_index.h"
+
+namespace skimap::server {
+namespace {
+
+std::vector<VoxelBatch<RGBWeightedVoxel>::Item> SomeVoxels(const ChunkCoord& c, int n) {
+  std::mt19937 rng(7);
+  std::vector<VoxelBatch<RGBWeightedVoxel>::Item> out;
+  const KeyBox box = ChunkBox(c);
+  for (int i = 0; i < n; ++i) {
+    const VoxelKey k{box.min.x + i % 32, box.min.y + (i / 32) % 32, box.min.z + i / 1024};
+    out.push_back({k, RGBWeightedVoxel(rng() % 256, rng() % 256, rng() % 256, 1 + rng() % 9)});
+  }
+  return out;
+}
+
+TEST(ChunkCodecTest, VoxelChunksRoundTripExactlyAndCompress) {
+  const ChunkCoord c{-3, 7, -1};
+  const auto voxels = SomeVoxels(c, 3000);
+  const std::string blob = EncodeVoxelChunk<RGBWeightedVoxel>(c, voxels);
+  EXPECT_LT(blob.size(), voxels.size() * 19);  // 3 key bytes + 16 data bytes raw
+  VoxelBatch<RGBWeightedVoxel> batch;
+  ASSERT_TRUE(DecodeVoxelChunk<RGBWeightedVoxel>(c, blob, &batch).ok());
+  ASSERT_EQ(batch.size(), voxels.size());
+  for (size_t i = 0; i < voxels.size(); ++i) {
+    const auto& got = batch.items()[i];
+    EXPECT_EQ(got.key, voxels[i].key);
+    EXPECT_EQ(got.data.r, voxels[i].data.r);
+    EXPECT_EQ(got.data.weight, voxels[i].data.weight);
+  }
+  // Another voxel type or content is refused.
+  VoxelBatch<WeightVoxel> other;
+  EXPECT_EQ(DecodeVoxelChunk<WeightVoxel>(c, blob, &other).code(), absl::StatusCode::kDataLoss);
+}
+
+TEST(ChunkCodecTest, EveryCorruptionIsAnErrorNeverACrash) {
+  const ChunkCoord c{0, 0, 0};
+  const std::string blob = EncodeVoxelChunk<RGBWeightedVoxel>(c, SomeVoxels(c, 500));
+  for (size_t at = 0; at < blob.size(); ++at) {
+    std::string bad = blob;
+    bad[at] = static_cast<char>(bad[at] ^ 0x5a);
+    VoxelBatch<RGBWeightedVoxel> batch;
+    const absl::Status s = DecodeVoxelChunk<RGBWeightedVoxel>(c, bad, &batch);
+    EXPECT_FALSE(s.ok()) << "byte " << at;
+    // The version bytes give the "newer" message; anything else is data loss.
+    if (at == 4 || at == 5) {
+      EXPECT_TRUE(absl::IsFailedPrecondition(s) || absl::IsDataLoss(s)) << s;
+    } else {
+      EXPECT_TRUE(absl::IsDataLoss(s)) << "byte " << at << ": " << s;
+    }
+  }
+  for (size_t len = 0; len < blob.size(); len += 7) {
+    VoxelBatch<RGBWeightedVoxel> batch;
+    EXPECT_EQ(DecodeVoxelChunk<RGBWeightedVoxel>(c, blob.substr(0, len), &batch).code(),
+              absl::StatusCode::kDataLoss)
+        << "length " << len;
+  }
+}
+
+TEST(ChunkCodecTest, ANewerFormatVersionIsRefusedByName) {
+  std::string blob = EncodeVoxelChunk<RGBWeightedVoxel>({0, 0, 0}, SomeVoxels({0, 0, 0}, 10));
+  blob[4] = 2;  // version 2, little endian
+  VoxelBatch<RGBWeightedVoxel> batch;
+  const absl::Status s = DecodeVoxelChunk<RGBWeightedVoxel>({0, 0, 0}, blob, &batch);
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.message().find("format version 2 is newer than this server's (1)"), std::string::npos)
+      << s;
+}
+
+TEST(FrameIndexTest, BucketsRoundTripAndRetentionCutsOldestFirst) {
+  FrameIndex index;
+  perception::CameraPose pose;
+  pose.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  pose.translation = {1.5, -2.25, 0.125};
+  for (uint64_t seq : {3u, 4u, 5000u}) {
+    index.Add(seq, {.position = seq + 10, .record_bytes = 100, .pose = pose});
+  }
+  std::vector<int64_t> dirty = index.TakeDirty();
+  std::sort(dirty.begin(), dirty.end());
+  ASSERT_EQ(dirty, (std::vector<int64_t>{0, 1}));
+  FrameIndex copy;
+  for (int64_t b : dirty) ASSERT_TRUE(copy.DecodeBucket(b, index.EncodeBucket(b)).ok());
+  ASSERT_EQ(copy.size(), 3u);
+  EXPECT_EQ(copy.Find(5000)->position, 5010u);
+  EXPECT_TRUE(copy.Find(4)->pose.rotation.isApprox(pose.rotation, 0));
+  EXPECT_EQ(copy.Find(4)->pose.translation, pose.translation);
+  // A bucket decoded under another number is corrupt.
+  FrameIndex wrong;
+  EXPECT_EQ(wrong.DecodeBucket(7, index.EncodeBucket(0)).code(), absl::StatusCode::kDataLoss);
+  // Retention: 300 bytes kept, budget 150 -> prune the two oldest records, never beyond
+  // what the snapshot covers.
+  EXPECT_EQ(index.RetentionCut(/*covered=*/5010, /*budget=*/150), 14u);
+  EXPECT_EQ(index.RetentionCut(/*covered=*/13, /*budget=*/0), 13u);
+  index.MarkPruned(14);
+  EXPECT_EQ(index.journal_bytes(), 100u);
+  EXPECT_TRUE(index.Pruned(*index.Find(4)));
+  EXPECT_FALSE(index.Pruned(*index.Find(5000)));
+}
+
+}  // namespace
+}  // namespace skimap::server
