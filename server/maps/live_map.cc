@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <future>
 #include <limits>
+#include <map>
 #include <random>
 #include <type_traits>
 #include <utility>
@@ -401,31 +402,37 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
 std::unique_ptr<LiveMap::Capture> LiveMap::CaptureOnWorker() {
   auto c = std::make_unique<Capture>();
   index_.MarkPruned(pruned_position_.load(std::memory_order_acquire));
+  // The dirty sets are taken under the exclusive lock (a moment); the chunks are copied
+  // under the shared one, so queries go on meanwhile. Nothing changes in between: this is
+  // the worker, the map's only writer.
+  std::map<std::string, DirtyChunks> taken;
   {
-    // The worker is the only writer and it is here: reading needs no exclusive lock, only
-    // clearing the dirty sets does.
     WriterLock lock(&snapshot_mu_);
     c->position = state_.journal_position;
-    state_.ForEachVolume([&](const char* name, auto& volume, DirtyChunks& dirty) {
-      using V = typename std::remove_reference_t<decltype(volume)>::VoxelType;
-      for (const ChunkCoord& coord : dirty) {
-        c->coords.emplace_back(name, coord);
-        std::vector<typename VoxelBatch<V>::Item> items;
-        volume.ForEachInBox(ChunkBox(coord), [&](const VoxelKey& k, const V& v) {
-          items.push_back({k, v});
-        });
-        storage::ChunkKey key{name, coord.x, coord.y, coord.z};
-        if (items.empty()) {
-          c->removed.push_back(std::move(key));
-          continue;
-        }
-        c->encoders.push_back([key = std::move(key), coord, items = std::move(items)] {
-          return storage::Chunk{key, EncodeVoxelChunk<V>(coord, items)};
-        });
-      }
+    state_.ForEachVolume([&](const char* name, auto&, DirtyChunks& dirty) {
+      taken[name] = std::move(dirty);
       dirty.clear();
     });
   }
+  ReaderLock lock(&snapshot_mu_);
+  state_.ForEachVolume([&](const char* name, const auto& volume, const DirtyChunks&) {
+    using V = typename std::remove_cvref_t<decltype(volume)>::VoxelType;
+    for (const ChunkCoord& coord : taken[name]) {
+      c->coords.emplace_back(name, coord);
+      std::vector<typename VoxelBatch<V>::Item> items;
+      volume.ForEachInBox(ChunkBox(coord), [&](const VoxelKey& k, const V& v) {
+        items.push_back({k, v});
+      });
+      storage::ChunkKey key{name, coord.x, coord.y, coord.z};
+      if (items.empty()) {
+        c->removed.push_back(std::move(key));
+        continue;
+      }
+      c->encoders.push_back([key = std::move(key), coord, items = std::move(items)] {
+        return storage::Chunk{key, EncodeVoxelChunk<V>(coord, items)};
+      });
+    }
+  });
   c->buckets = index_.TakeDirty();
   for (int64_t b : c->buckets) {
     storage::Chunk chunk;
