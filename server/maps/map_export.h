@@ -93,7 +93,8 @@ class ExportReader {
   // record). After an error, every call returns that error.
   absl::StatusOr<std::optional<ExportRecord>> Next();
   // Call after the last bytes: OK once the end record was read and nothing follows it;
-  // DataLoss naming where the file stops otherwise.
+  // DataLoss naming where the file stops otherwise. Records not taken with Next yet are
+  // parsed (and checked) but dropped.
   absl::Status Finish();
 
   uint32_t version() const { return version_; }  // 0 until the header was read
