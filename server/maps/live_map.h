@@ -129,6 +129,8 @@ class LiveMap {
   // Writes a snapshot (as Snapshot(), even while other holds live) and returns a hold taken
   // right after it. Errors: Snapshot()'s; FailedPrecondition without a store.
   absl::StatusOr<SnapshotHold> SnapshotAndHold();
+  // True while a SnapshotHold lives (the registry does not evict such a map).
+  bool snapshots_held() const { return snapshot_holds_.load(std::memory_order_acquire) > 0; }
 
   // Journal records not yet covered by a snapshot.
   uint64_t records_since_snapshot() const {

@@ -187,6 +187,8 @@ void MapRegistry::Maintain(uint64_t min_records) {
             [](const Loaded& a, const Loaded& b) { return a.last_used < b.last_used; });
   // The most recently used map stays: evicting it would only load it again.
   for (size_t i = 0; i + 1 < loaded.size() && total > options_.memory_budget_bytes; ++i) {
+    // An export reads the store as its snapshot left it: a reload could snapshot anew.
+    if (loaded[i].map->snapshots_held()) continue;
     Evict(loaded[i].id, loaded[i].map);
     total -= loaded[i].bytes;
   }

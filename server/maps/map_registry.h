@@ -12,9 +12,10 @@
 //
 // Eviction: Maintain() snapshots maps with unsnapshotted journal records, then, while the
 // loaded maps' memory exceeds memory_budget_bytes, evicts the least recently used loaded
-// map except the most recent one: its new writes answer Unavailable (retry), the writes
-// already running finish, a snapshot is written, and it leaves memory; the next Get loads
-// it again. Nothing journaled is lost: whatever the snapshot does not cover is replayed.
+// map except the most recent one and those being exported (LiveMap::snapshots_held): its
+// new writes answer Unavailable (retry), the writes already running finish, a snapshot is
+// written, and it leaves memory; the next Get loads it again. Nothing journaled is lost:
+// whatever the snapshot does not cover is replayed.
 //
 // Imports: Reserve takes an id before the map exists (the store is being written), so that
 // no Create of the same id can slip in and no Get can load a half-written map; the import

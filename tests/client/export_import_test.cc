@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -438,6 +439,61 @@ TEST(ExportImportInProcessTest, AnImportCutShortByACrashIsRemovedAtStart) {
     v1::CreateMapRequest create;
     create.set_map_id("half");  // the id is free again, on disk too
     EXPECT_TRUE(client->CreateMap(create).ok());
+  }
+  fs::remove_all(dir);
+}
+
+TEST(ExportImportInProcessTest, AMapBeingExportedIsNotEvicted) {
+  const std::string dir =
+      (fs::temp_directory_path() / absl::StrCat("skimap_export_evict_", getpid())).string();
+  fs::create_directories(dir);
+  {
+    auto store = storage::SqliteMapStore::Open(dir + "/maps.sqlite");
+    ASSERT_TRUE(store.ok());
+    server::MapService::Options options;
+    options.worker_threads = 1;
+    options.store = store->get();
+    options.memory_budget_bytes = 1;  // every map but the most recent one goes
+    server::MapService service(options);
+    for (const char* id : {"a", "b"}) {
+      v1::CreateMapRequest create;
+      create.set_map_id(id);
+      ASSERT_TRUE(service.CreateMap(create).ok());
+      std::promise<absl::Status> done;
+      service.IntegrateFrame(
+          std::make_shared<v1::Frame>(MakeFrame(absl::StrCat("maps/", id), 1, DefaultView())),
+          [&](absl::StatusOr<v1::FrameAck> ack) { done.set_value(ack.status()); });
+      ASSERT_TRUE(done.get_future().get().ok());
+    }
+    auto loaded = [&](const std::string& name) {
+      const absl::StatusOr<v1::ListMapsResponse> maps = service.ListMaps({});
+      for (const v1::Map& m : maps->maps()) {
+        if (m.name() == name) return m.stats().loaded();
+      }
+      return false;
+    };
+    v1::ExportMapRequest request;
+    request.set_name("maps/a");
+    auto exporter = service.ExportMap(request);
+    ASSERT_TRUE(exporter.ok()) << exporter.status();
+    v1::GetMapRequest get;
+    get.set_name("maps/b");
+    ASSERT_TRUE(service.GetMap(get).ok());  // b is the most recent; a would go
+    service.SnapshotAll();
+    EXPECT_TRUE(loaded("maps/a"));
+    std::string file;
+    for (;;) {
+      auto piece = (*exporter)->Next();
+      ASSERT_TRUE(piece.ok()) << piece.status();
+      if (!piece->has_value()) break;
+      file += **piece;
+    }
+    exporter->reset();
+    service.SnapshotAll();
+    EXPECT_FALSE(loaded("maps/a"));
+    server::ExportReader reader;
+    reader.Feed(file);
+    EXPECT_TRUE(reader.Finish().ok());
   }
   fs::remove_all(dir);
 }
