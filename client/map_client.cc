@@ -135,4 +135,53 @@ absl::StatusOr<v1::RadiusSearchResponse> MapClient::RadiusSearch(
   return Unary(*stub_, &v1::MapService::Stub::RadiusSearch, request, options_.timeout);
 }
 
+absl::Status MapClient::ExportMap(const v1::ExportMapRequest& request,
+                                  const std::function<absl::Status(std::string_view)>& sink) {
+  grpc::ClientContext ctx;
+  ctx.set_deadline(absl::ToChronoTime(absl::Now() + options_.transfer_timeout));
+  std::unique_ptr<grpc::ClientReader<v1::ExportChunk>> reader = stub_->ExportMap(&ctx, request);
+  v1::ExportChunk piece;
+  absl::Status sunk;
+  while (reader->Read(&piece)) {
+    sunk = sink(piece.data());
+    if (!sunk.ok()) {
+      ctx.TryCancel();
+      while (reader->Read(&piece)) {
+      }
+      break;
+    }
+  }
+  const grpc::Status s = reader->Finish();
+  if (!sunk.ok()) return sunk;
+  return FromGrpcStatus(s);
+}
+
+absl::StatusOr<v1::Map> MapClient::ImportMap(
+    const std::string& map_id, const std::function<absl::StatusOr<std::string>()>& source) {
+  grpc::ClientContext ctx;
+  ctx.set_deadline(absl::ToChronoTime(absl::Now() + options_.transfer_timeout));
+  v1::Map response;
+  std::unique_ptr<grpc::ClientWriter<v1::ExportChunk>> writer = stub_->ImportMap(&ctx, &response);
+  v1::ExportChunk piece;
+  piece.set_map_id(map_id);
+  absl::Status read;
+  for (;;) {
+    absl::StatusOr<std::string> data = source();
+    if (!data.ok()) {
+      read = data.status();
+      ctx.TryCancel();
+      break;
+    }
+    if (data->empty()) break;
+    piece.set_data(*std::move(data));
+    if (!writer->Write(piece)) break;  // the server ended the call; Finish says why
+    piece.clear_map_id();
+  }
+  writer->WritesDone();
+  const grpc::Status s = writer->Finish();
+  if (!read.ok()) return read;
+  if (!s.ok()) return FromGrpcStatus(s);
+  return response;
+}
+
 }  // namespace skimap::client

@@ -15,8 +15,10 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -29,8 +31,9 @@ namespace skimap::client {
 class MapClient {
  public:
   struct Options {
-    int max_message_bytes = 80 << 20;            // match skimapd's --max_message_mb
-    absl::Duration timeout = absl::Seconds(60);  // deadline of each unary call
+    int max_message_bytes = 80 << 20;                     // match skimapd's --max_message_mb
+    absl::Duration timeout = absl::Seconds(60);           // deadline of each unary call
+    absl::Duration transfer_timeout = absl::Minutes(30);  // ExportMap / ImportMap calls
   };
   // Creates a channel to `target` (host:port); does not wait for the server.
   static std::unique_ptr<MapClient> Connect(const std::string& target, const Options& options);
@@ -58,6 +61,17 @@ class MapClient {
   // Every voxel of the request's box, via StreamVoxels.
   absl::StatusOr<std::vector<v1::Voxel>> GetAllVoxels(const v1::GetVoxelsRequest& request);
   absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(const v1::RadiusSearchRequest& r);
+
+  // ExportMap: hands the pieces of the map's export file to `sink`, in order, as they
+  // arrive (nothing is buffered here). An error of `sink` cancels the call and is returned;
+  // otherwise the call's status.
+  absl::Status ExportMap(const v1::ExportMapRequest& request,
+                         const std::function<absl::Status(std::string_view piece)>& sink);
+  // ImportMap: sends the pieces `source` returns until it returns an empty string (the end
+  // of the file), the first one with `map_id` ("" keeps the file's id); the new map. An
+  // error of `source` cancels the call (the server then keeps nothing) and is returned.
+  absl::StatusOr<v1::Map> ImportMap(const std::string& map_id,
+                                    const std::function<absl::StatusOr<std::string>()>& source);
 
   v1::MapService::Stub& stub() { return *stub_; }
 

@@ -6,8 +6,12 @@
 //   skimap grid --map=ID -o FILE.yaml          ROS map_server PGM + YAML (trinary)
 //   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
 //   skimap voxels --map=ID -o FILE.ply
+//   skimap export --map=ID -o FILE [--with-journal]   the map as one export file
+//   skimap import FILE [--as=ID]                       a map from an export file
+//     (client/transfer_command.h)
 //   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | build | classifier
 //     (client/objects_command.h)
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -20,6 +24,7 @@
 #include "client/map_files.h"
 #include "client/objects_command.h"
 #include "client/stream_command.h"
+#include "client/transfer_command.h"
 
 ABSL_FLAG(std::string, server, "localhost:50051", "skimapd address host:port");
 ABSL_FLAG(std::string, map, "", "map id (maps/ID)");
@@ -27,6 +32,9 @@ ABSL_FLAG(std::string, o, "", "output file");
 ABSL_FLAG(double, fps, 0, "stream: frames per second (0 = as fast as the server takes them)");
 ABSL_FLAG(double, resolution, 0.05, "maps create / stream: voxel size in metres");
 ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
+ABSL_FLAG(bool, with_journal, false,
+          "export: also the map's journal (UpdatePoses then works on the imported frames)");
+ABSL_FLAG(std::string, as, "", "import: the new map's id (default: the id in the file)");
 
 namespace {
 
@@ -125,6 +133,43 @@ int Voxels(MapClient& client) {
   return 0;
 }
 
+int Export(MapClient& client) {
+  const std::string id = absl::GetFlag(FLAGS_map), out = absl::GetFlag(FLAGS_o);
+  const bool journal = absl::GetFlag(FLAGS_with_journal);
+  absl::StatusOr<uint64_t> bytes = skimap::client::ExportMapToFile(client, id, out, journal);
+  if (!bytes.ok()) return Fail(bytes.status());
+  std::printf("maps/%s -> %s (%llu bytes%s)\n", id.c_str(), out.c_str(), (unsigned long long)*bytes,
+              journal ? ", with journal" : "");
+  return 0;
+}
+
+int Import(MapClient& client, const std::vector<std::string>& args) {
+  if (args.size() < 3) return Fail(absl::InvalidArgumentError("import needs a FILE"));
+  absl::StatusOr<v1::Map> map =
+      skimap::client::ImportMapFromFile(client, args[2], absl::GetFlag(FLAGS_as));
+  if (!map.ok()) return Fail(map.status());
+  std::printf("%s <- ", args[2].c_str());
+  PrintMap(*map);
+  return 0;
+}
+
+// Flags may be spelled with '-' or '_' (--with-journal, --with_journal): abseil knows the
+// latter.
+std::vector<char*> NormalizeFlagNames(int argc, char** argv, std::vector<std::string>* storage) {
+  storage->assign(argv, argv + argc);
+  for (std::string& a : *storage) {
+    if (a == "--") break;
+    if (a.size() < 3 || a.compare(0, 2, "--") != 0) continue;
+    const size_t end = std::min(a.find('='), a.size());
+    for (size_t i = 2; i < end; ++i) {
+      if (a[i] == '-') a[i] = '_';
+    }
+  }
+  std::vector<char*> out;
+  for (std::string& a : *storage) out.push_back(a.data());
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -134,9 +179,14 @@ int main(int argc, char** argv) {
       "       skimap grid --map=ID -o FILE.yaml\n"
       "       skimap heightmap --map=ID -o FILE.png|FILE.tiff\n"
       "       skimap voxels --map=ID -o FILE.ply\n"
+      "       skimap export --map=ID -o FILE [--with-journal]\n"
+      "       skimap import FILE [--as=ID]\n"
       "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
       "[--detector=ORB]|build|classifier");
-  std::vector<char*> positional = absl::ParseCommandLine(argc, argv);
+  std::vector<std::string> arg_storage;
+  std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
+  std::vector<char*> positional =
+      absl::ParseCommandLine(static_cast<int>(normalized.size()), normalized.data());
   std::vector<std::string> args(positional.begin(), positional.end());
   if (args.size() < 2) {
     std::fprintf(stderr, "%s\n", absl::ProgramUsageMessage().data());
@@ -148,8 +198,9 @@ int main(int argc, char** argv) {
   std::unique_ptr<MapClient> client = MapClient::Connect(absl::GetFlag(FLAGS_server));
   const std::string& command = args[1];
   if (command == "maps") return Maps(*client, args);
-  const bool needs_map =
-      command == "stream" || command == "grid" || command == "heightmap" || command == "voxels";
+  if (command == "import") return Import(*client, args);
+  const bool needs_map = command == "stream" || command == "grid" || command == "heightmap" ||
+                         command == "voxels" || command == "export";
   if (needs_map && absl::GetFlag(FLAGS_map).empty()) {
     return Fail(absl::InvalidArgumentError(command + " needs --map=ID"));
   }
@@ -169,5 +220,6 @@ int main(int argc, char** argv) {
   if (command == "grid") return Grid(*client);
   if (command == "heightmap") return HeightMap(*client);
   if (command == "voxels") return Voxels(*client);
+  if (command == "export") return Export(*client);
   return Fail(absl::InvalidArgumentError("unknown command " + command + " (see --help)"));
 }

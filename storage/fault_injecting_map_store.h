@@ -6,8 +6,8 @@
 //   store.FailWriteNumber(3, absl::ResourceExhaustedError("disk full"));  // the 3rd write
 //
 // A failed write reaches nothing below (so it changes nothing, as the contract requires);
-// reads always pass through. Writes are CreateMap, DeleteMap, AppendJournal, PruneJournal
-// and WriteSnapshot, counted from 1 across all of them.
+// reads always pass through. Writes are CreateMap, DeleteMap, BeginImport, FinishImport,
+// AppendJournal, PruneJournal and WriteSnapshot, counted from 1 across all of them.
 //
 // Thread safety: thread safe.
 #ifndef SKIMAP_STORAGE_FAULT_INJECTING_MAP_STORE_H_
@@ -45,6 +45,15 @@ class FaultInjectingMapStore final : public MapStore {
     if (absl::Status s = Write(); !s.ok()) return s;
     return base_->DeleteMap(id);
   }
+  absl::Status BeginImport(const std::string& id, const std::string& options,
+                           uint64_t journal_base) override {
+    if (absl::Status s = Write(); !s.ok()) return s;
+    return base_->BeginImport(id, options, journal_base);
+  }
+  absl::Status FinishImport(const std::string& id) override {
+    if (absl::Status s = Write(); !s.ok()) return s;
+    return base_->FinishImport(id);
+  }
   absl::StatusOr<std::vector<StoredMap>> ListMaps() override { return base_->ListMaps(); }
   absl::StatusOr<StoredMap> GetMap(const std::string& id) override { return base_->GetMap(id); }
   absl::StatusOr<uint64_t> AppendJournal(const std::string& id,
@@ -73,6 +82,11 @@ class FaultInjectingMapStore final : public MapStore {
   absl::StatusOr<uint64_t> ReadSnapshot(
       const std::string& id, const std::function<absl::Status(const Chunk&)>& fn) override {
     return base_->ReadSnapshot(id, fn);
+  }
+  absl::StatusOr<uint64_t> ReadSnapshotPage(
+      const std::string& id, const std::optional<ChunkKey>& after, size_t limit,
+      const std::function<absl::Status(const Chunk&)>& fn) override {
+    return base_->ReadSnapshotPage(id, after, limit, fn);
   }
 
  private:

@@ -8,6 +8,10 @@
 //   uint64_t last = *store->AppendJournal("kitchen", {{JournalRecord::kFrame, frame_bytes}});
 //   // durable: the ack may go out now
 //
+// Imports (a map brought from an export file) create the map with BeginImport, write its
+// chunks and journal, and end with FinishImport; until then the map is marked importing,
+// and a server that finds such a map at start deletes it (the import did not finish).
+//
 // Payloads are opaque bytes to the store (the server encodes frames, pose updates, options
 // and chunks; docs/formats.md). Positions are per map, 1, 2, 3, ... in append order.
 //
@@ -18,6 +22,9 @@
 //   position the snapshot covers in one atomic step: a reader sees the previous snapshot
 //   whole or the new one whole, never a mix.
 // - DeleteMap removes the map's journal and chunks with it.
+// - ReadSnapshotPage walks the chunks in key order; pages read by successive calls belong
+//   to one snapshot only if no WriteSnapshot of that map ran between them (callers that
+//   page keep the map's snapshots from running meanwhile).
 // - Errors: NotFound (unknown map), AlreadyExists (CreateMap), InvalidArgument (bad
 //   arguments), ResourceExhausted (disk full), Unavailable (I/O, read-only), DataLoss
 //   (corrupt store); a failed call changes nothing.
@@ -26,6 +33,7 @@
 #ifndef SKIMAP_STORAGE_MAP_STORE_H_
 #define SKIMAP_STORAGE_MAP_STORE_H_
 
+#include <compare>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -43,6 +51,7 @@ struct StoredMap {
   uint64_t last_position = 0;      // last journal position appended (0: none)
   uint64_t snapshot_position = 0;  // journal position the last snapshot covers (0: none)
   int64_t snapshot_unix_ms = 0;    // when it was written (0: none)
+  bool importing = false;          // between BeginImport and FinishImport
 };
 
 struct JournalRecord {
@@ -57,6 +66,7 @@ struct ChunkKey {
   std::string volume;  // "rgb", "free", ...
   int64_t x = 0, y = 0, z = 0;
   bool operator==(const ChunkKey&) const = default;
+  auto operator<=>(const ChunkKey&) const = default;  // key order: volume (bytes), x, y, z
 };
 struct Chunk {
   ChunkKey key;
@@ -69,6 +79,14 @@ class MapStore {
 
   virtual absl::Status CreateMap(const std::string& id, const std::string& options) = 0;
   virtual absl::Status DeleteMap(const std::string& id) = 0;
+  // Starts an import: creates map `id` like CreateMap, marked importing until FinishImport,
+  // with its journal continuing after `journal_base`: the first AppendJournal returns
+  // journal_base + 1, the positions up to it read as pruned, and a snapshot may cover up to
+  // it. Errors as CreateMap.
+  virtual absl::Status BeginImport(const std::string& id, const std::string& options,
+                                   uint64_t journal_base) = 0;
+  // Clears the importing mark of map `id`. NotFound (unknown map).
+  virtual absl::Status FinishImport(const std::string& id) = 0;
   // Every stored map, ordered by id.
   virtual absl::StatusOr<std::vector<StoredMap>> ListMaps() = 0;
   virtual absl::StatusOr<StoredMap> GetMap(const std::string& id) = 0;
@@ -98,6 +116,12 @@ class MapStore {
   // covers.
   virtual absl::StatusOr<uint64_t> ReadSnapshot(
       const std::string& id, const std::function<absl::Status(const Chunk&)>& fn) = 0;
+  // Calls fn for the first `limit` chunks of the latest snapshot in key order whose key is
+  // greater than `after` (every chunk when absent), stopping at fn's first error; returns
+  // the position the snapshot covers. fn must not call this store.
+  virtual absl::StatusOr<uint64_t> ReadSnapshotPage(
+      const std::string& id, const std::optional<ChunkKey>& after, size_t limit,
+      const std::function<absl::Status(const Chunk&)>& fn) = 0;
 };
 
 }  // namespace skimap::storage

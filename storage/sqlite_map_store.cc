@@ -39,9 +39,24 @@ CREATE TABLE chunks (
 );
 )sql";
 
+// Version 2: imports (BeginImport .. FinishImport) mark their map until they finish.
+constexpr char kMapStoreV2[] = R"sql(
+ALTER TABLE maps ADD COLUMN importing INTEGER NOT NULL DEFAULT 0;
+)sql";
+
 constexpr Migration kMapStoreMigrations[] = {
     {1, "map store: maps, journal, chunks", kMapStoreV1},
+    {2, "map store: importing mark", kMapStoreV2},
 };
+
+constexpr char kMapColumns[] =
+    "id, options, last_position, snapshot_position, snapshot_unix_ms, importing";
+
+// The map in the current row of a statement selecting kMapColumns.
+StoredMap MapAt(const Statement& st) {
+  return StoredMap{st.ColumnText(0),          st.ColumnBlob(1), uint64_t(st.ColumnInt(2)),
+                   uint64_t(st.ColumnInt(3)), st.ColumnInt(4),  st.ColumnInt(5) != 0};
+}
 
 absl::Status NoMap(const std::string& id) {
   return absl::NotFoundError(absl::StrCat("map store: no map ", id));
@@ -64,7 +79,20 @@ absl::StatusOr<std::unique_ptr<SqliteMapStore>> SqliteMapStore::Open(const std::
 }
 
 absl::Status SqliteMapStore::CreateMap(const std::string& id, const std::string& options) {
+  return Insert(id, options, 0, false);
+}
+
+absl::Status SqliteMapStore::BeginImport(const std::string& id, const std::string& options,
+                                         uint64_t journal_base) {
+  return Insert(id, options, journal_base, true);
+}
+
+absl::Status SqliteMapStore::Insert(const std::string& id, const std::string& options,
+                                    uint64_t last_position, bool importing) {
   if (id.empty()) return absl::InvalidArgumentError("map store: empty map id");
+  if (last_position > uint64_t(INT64_MAX)) {
+    return absl::InvalidArgumentError("map store: journal base beyond 2^63");
+  }
   std::lock_guard<std::mutex> lock(mu_);
   Transaction tx(*db_);
   SK_RETURN_IF_ERROR(tx.status());
@@ -72,10 +100,24 @@ absl::Status SqliteMapStore::CreateMap(const std::string& id, const std::string&
   SK_RETURN_IF_ERROR(exists.BindText(1, id));
   SK_ASSIGN_OR_RETURN(found, exists.Step());
   if (found) return absl::AlreadyExistsError(absl::StrCat("map store: map ", id, " exists"));
-  SK_ASSIGN_OR_RETURN(insert, db_->Prepare("INSERT INTO maps (id, options) VALUES (?, ?)"));
+  SK_ASSIGN_OR_RETURN(insert, db_->Prepare("INSERT INTO maps (id, options, last_position, "
+                                           "importing) VALUES (?, ?, ?, ?)"));
   SK_RETURN_IF_ERROR(insert.BindText(1, id));
   SK_RETURN_IF_ERROR(insert.BindBlob(2, options));
+  SK_RETURN_IF_ERROR(insert.BindInt(3, int64_t(last_position)));
+  SK_RETURN_IF_ERROR(insert.BindInt(4, importing ? 1 : 0));
   SK_RETURN_IF_ERROR(insert.Run());
+  return tx.Commit();
+}
+
+absl::Status SqliteMapStore::FinishImport(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Transaction tx(*db_);
+  SK_RETURN_IF_ERROR(tx.status());
+  SK_RETURN_IF_ERROR(GetMapLocked(id).status());
+  SK_ASSIGN_OR_RETURN(mark, db_->Prepare("UPDATE maps SET importing = 0 WHERE id = ?"));
+  SK_RETURN_IF_ERROR(mark.BindText(1, id));
+  SK_RETURN_IF_ERROR(mark.Run());
   return tx.Commit();
 }
 
@@ -92,13 +134,12 @@ absl::Status SqliteMapStore::DeleteMap(const std::string& id) {
 }
 
 absl::StatusOr<StoredMap> SqliteMapStore::GetMapLocked(const std::string& id) {
-  SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT options, last_position, snapshot_position, "
-                                       "snapshot_unix_ms FROM maps WHERE id = ?"));
+  SK_ASSIGN_OR_RETURN(
+      st, db_->Prepare(absl::StrCat("SELECT ", kMapColumns, " FROM maps WHERE id = ?")));
   SK_RETURN_IF_ERROR(st.BindText(1, id));
   SK_ASSIGN_OR_RETURN(row, st.Step());
   if (!row) return NoMap(id);
-  return StoredMap{id, st.ColumnBlob(0), uint64_t(st.ColumnInt(1)), uint64_t(st.ColumnInt(2)),
-                   st.ColumnInt(3)};
+  return MapAt(st);
 }
 
 absl::StatusOr<StoredMap> SqliteMapStore::GetMap(const std::string& id) {
@@ -108,14 +149,13 @@ absl::StatusOr<StoredMap> SqliteMapStore::GetMap(const std::string& id) {
 
 absl::StatusOr<std::vector<StoredMap>> SqliteMapStore::ListMaps() {
   std::lock_guard<std::mutex> lock(mu_);
-  SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT id, options, last_position, snapshot_position, "
-                                       "snapshot_unix_ms FROM maps ORDER BY id"));
+  SK_ASSIGN_OR_RETURN(st,
+                      db_->Prepare(absl::StrCat("SELECT ", kMapColumns, " FROM maps ORDER BY id")));
   std::vector<StoredMap> out;
   while (true) {
     SK_ASSIGN_OR_RETURN(row, st.Step());
     if (!row) break;
-    out.push_back({st.ColumnText(0), st.ColumnBlob(1), uint64_t(st.ColumnInt(2)),
-                   uint64_t(st.ColumnInt(3)), st.ColumnInt(4)});
+    out.push_back(MapAt(st));
   }
   return out;
 }
@@ -257,6 +297,41 @@ absl::StatusOr<uint64_t> SqliteMapStore::ReadSnapshot(
     SK_ASSIGN_OR_RETURN(st, db_->Prepare("SELECT volume, cx, cy, cz, bytes FROM chunks "
                                          "WHERE map = ?"));
     SK_RETURN_IF_ERROR(st.BindText(1, id));
+    while (true) {
+      SK_ASSIGN_OR_RETURN(row, st.Step());
+      if (!row) return map.snapshot_position;
+      Chunk c{{st.ColumnText(0), st.ColumnInt(1), st.ColumnInt(2), st.ColumnInt(3)},
+              st.ColumnBlob(4)};
+      SK_RETURN_IF_ERROR(fn(c));
+    }
+  };
+  absl::StatusOr<uint64_t> result = read();
+  absl::Status end = db_->Exec("COMMIT");
+  if (result.ok() && !end.ok()) return end;
+  return result;
+}
+
+absl::StatusOr<uint64_t> SqliteMapStore::ReadSnapshotPage(
+    const std::string& id, const std::optional<ChunkKey>& after, size_t limit,
+    const std::function<absl::Status(const Chunk&)>& fn) {
+  std::lock_guard<std::mutex> lock(mu_);
+  SK_RETURN_IF_ERROR(db_->Exec("BEGIN"));
+  auto read = [&]() -> absl::StatusOr<uint64_t> {
+    SK_ASSIGN_OR_RETURN(map, GetMapLocked(id));
+    // Row values walk the UNIQUE (map, volume, cx, cy, cz) index from `after` on.
+    SK_ASSIGN_OR_RETURN(st,
+                        db_->Prepare(absl::StrCat(
+                            "SELECT volume, cx, cy, cz, bytes FROM chunks WHERE map = ?1",
+                            after.has_value() ? " AND (volume, cx, cy, cz) > (?2, ?3, ?4, ?5)" : "",
+                            " ORDER BY volume, cx, cy, cz LIMIT ?6")));
+    SK_RETURN_IF_ERROR(st.BindText(1, id));
+    if (after.has_value()) {
+      SK_RETURN_IF_ERROR(st.BindText(2, after->volume));
+      SK_RETURN_IF_ERROR(st.BindInt(3, after->x));
+      SK_RETURN_IF_ERROR(st.BindInt(4, after->y));
+      SK_RETURN_IF_ERROR(st.BindInt(5, after->z));
+    }
+    SK_RETURN_IF_ERROR(st.BindInt(6, int64_t(std::min<size_t>(limit, INT64_MAX))));
     while (true) {
       SK_ASSIGN_OR_RETURN(row, st.Step());
       if (!row) return map.snapshot_position;

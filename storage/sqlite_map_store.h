@@ -23,6 +23,9 @@ class SqliteMapStore final : public MapStore {
 
   absl::Status CreateMap(const std::string& id, const std::string& options) override;
   absl::Status DeleteMap(const std::string& id) override;
+  absl::Status BeginImport(const std::string& id, const std::string& options,
+                           uint64_t journal_base) override;
+  absl::Status FinishImport(const std::string& id) override;
   absl::StatusOr<std::vector<StoredMap>> ListMaps() override;
   absl::StatusOr<StoredMap> GetMap(const std::string& id) override;
   absl::StatusOr<uint64_t> AppendJournal(const std::string& id,
@@ -37,10 +40,16 @@ class SqliteMapStore final : public MapStore {
                              const std::vector<ChunkKey>& removed) override;
   absl::StatusOr<uint64_t> ReadSnapshot(
       const std::string& id, const std::function<absl::Status(const Chunk&)>& fn) override;
+  absl::StatusOr<uint64_t> ReadSnapshotPage(
+      const std::string& id, const std::optional<ChunkKey>& after, size_t limit,
+      const std::function<absl::Status(const Chunk&)>& fn) override;
 
  private:
   explicit SqliteMapStore(std::unique_ptr<Database> db) : db_(std::move(db)) {}
   absl::StatusOr<StoredMap> GetMapLocked(const std::string& id);
+  // CreateMap and BeginImport: a new row for map `id`.
+  absl::Status Insert(const std::string& id, const std::string& options, uint64_t last_position,
+                      bool importing);
   // The journal record in the current row of `st` (position, kind, payload).
   static absl::StatusOr<JournalRecord> RecordAt(const std::string& id, Statement& st);
 

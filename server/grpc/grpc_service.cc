@@ -5,6 +5,7 @@
 
 #include "server/grpc/frame_stream_reactor.h"
 #include "server/grpc/grpc_status.h"
+#include "server/grpc/map_transfer_reactors.h"
 
 namespace skimap::server {
 namespace {
@@ -123,6 +124,16 @@ ServerUnaryReactor* GrpcMapService::RadiusSearch(CallbackServerContext* ctx,
                                                  const v1::RadiusSearchRequest* request,
                                                  v1::RadiusSearchResponse* response) {
   return Reply(ctx, core_->RadiusSearch(*request), response);
+}
+
+grpc::ServerWriteReactor<v1::ExportChunk>* GrpcMapService::ExportMap(
+    CallbackServerContext* ctx, const v1::ExportMapRequest* request) {
+  return new ExportWriteReactor(core_, *request);
+}
+
+grpc::ServerReadReactor<v1::ExportChunk>* GrpcMapService::ImportMap(CallbackServerContext* ctx,
+                                                                    v1::Map* response) {
+  return new ImportReadReactor(core_, ctx, response);
 }
 
 }  // namespace skimap::server

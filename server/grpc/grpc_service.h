@@ -3,7 +3,9 @@
 //
 // Routes (skimap.v1.MapService): CreateMap, GetMap, ListMaps, DeleteMap, IntegrateFrame,
 // UpdatePoses, GetOccupancyGrid, GetHeightMap, GetVoxels, RadiusSearch (unary);
-// StreamFrames (bidi, FrameStreamReactor); StreamVoxels (server stream of GetVoxels pages).
+// StreamFrames (bidi, FrameStreamReactor); StreamVoxels (server stream of GetVoxels pages);
+// ExportMap (server stream) and ImportMap (client stream) of export file pieces
+// (map_transfer_reactors.h).
 //
 // Thread safety: stateless apart from the core pointer; safe for concurrent calls.
 #ifndef SERVER_GRPC_GRPC_SERVICE_H_
@@ -57,6 +59,10 @@ class GrpcMapService final : public v1::MapService::CallbackService {
   grpc::ServerUnaryReactor* RadiusSearch(grpc::CallbackServerContext* ctx,
                                          const v1::RadiusSearchRequest* request,
                                          v1::RadiusSearchResponse* response) override;
+  grpc::ServerWriteReactor<v1::ExportChunk>* ExportMap(
+      grpc::CallbackServerContext* ctx, const v1::ExportMapRequest* request) override;
+  grpc::ServerReadReactor<v1::ExportChunk>* ImportMap(grpc::CallbackServerContext* ctx,
+                                                      v1::Map* response) override;
 
  private:
   MapService* const core_;

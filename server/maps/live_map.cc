@@ -448,6 +448,22 @@ std::unique_ptr<LiveMap::Capture> LiveMap::CaptureOnWorker() {
 absl::Status LiveMap::Snapshot() {
   if (options_.store == nullptr) return absl::OkStatus();
   std::lock_guard<std::mutex> one_at_a_time(snapshot_run_mu_);
+  if (snapshot_holds_.load(std::memory_order_acquire) > 0) return absl::OkStatus();
+  return SnapshotLocked();
+}
+
+absl::StatusOr<LiveMap::SnapshotHold> LiveMap::SnapshotAndHold() {
+  if (options_.store == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("map ", MapName(id_), " is in memory only (no store)"));
+  }
+  std::lock_guard<std::mutex> one_at_a_time(snapshot_run_mu_);
+  if (absl::Status s = SnapshotLocked(); !s.ok()) return s;
+  snapshot_holds_.fetch_add(1, std::memory_order_acq_rel);
+  return SnapshotHold(this);
+}
+
+absl::Status LiveMap::SnapshotLocked() {
   std::unique_ptr<Capture> c = queue_.Run([this] { return CaptureOnWorker(); });
   const uint64_t pruned = pruned_position_.load(std::memory_order_acquire);
   if (c->empty() && c->position == snapshot_position_.load(std::memory_order_acquire) &&

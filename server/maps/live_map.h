@@ -26,6 +26,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/base/thread_annotations.h"
@@ -104,9 +105,33 @@ class LiveMap {
   // of the frame index changed since the last snapshot, then prunes the journal by the
   // retention policy. The changed chunks are copied on the map's worker (writes wait for
   // the copy only); they are encoded and written on the calling thread. OK without a
-  // store or when nothing changed. On error the changes stay pending for the next one.
-  // Not concurrently with itself.
+  // store or when nothing changed, and while a SnapshotHold lives (below). On error the
+  // changes stay pending for the next one. Thread safe: snapshots of one map run one at a
+  // time.
   absl::Status Snapshot();
+  // Export support: while a SnapshotHold lives, Snapshot() of this map writes nothing and
+  // prunes nothing (OK), so the store's chunks and journal stay as the hold's snapshot left
+  // them; new writes still append to the journal. A hold is a counter, not a lock: it may
+  // be released on any thread. REQUIRES: the map outlives its holds.
+  class SnapshotHold {
+   public:
+    SnapshotHold(SnapshotHold&& o) noexcept : map_(std::exchange(o.map_, nullptr)) {}
+    SnapshotHold& operator=(SnapshotHold&&) = delete;
+    ~SnapshotHold() {
+      if (map_ != nullptr) map_->snapshot_holds_.fetch_sub(1, std::memory_order_acq_rel);
+    }
+
+   private:
+    friend class LiveMap;
+    explicit SnapshotHold(LiveMap* map) : map_(map) {}
+    LiveMap* map_;
+  };
+  // Writes a snapshot (as Snapshot(), even while other holds live) and returns a hold taken
+  // right after it. Errors: Snapshot()'s; FailedPrecondition without a store.
+  absl::StatusOr<SnapshotHold> SnapshotAndHold();
+  // True while a SnapshotHold lives (the registry does not evict such a map).
+  bool snapshots_held() const { return snapshot_holds_.load(std::memory_order_acquire) > 0; }
+
   // Journal records not yet covered by a snapshot.
   uint64_t records_since_snapshot() const {
     return journal_position_.load(std::memory_order_acquire) -
@@ -138,6 +163,7 @@ class LiveMap {
                                                            const std::string& field);
   absl::Status ReplayOnWorker(const storage::JournalRecord& record);
   std::unique_ptr<Capture> CaptureOnWorker();
+  absl::Status SnapshotLocked();  // REQUIRES: snapshot_run_mu_ held
   absl::Status LoadSnapshotOnWorker();
   // Appends one record to the store; returns its position (0 without a store). The
   // store's error otherwise, prefixed "journal: ": the write must then not be applied or
@@ -174,6 +200,7 @@ class LiveMap {
   std::vector<std::unique_ptr<FrameStage>> stages_;  // in order
 
   std::mutex snapshot_run_mu_;  // one Snapshot() at a time
+  std::atomic<int> snapshot_holds_{0};
 
   WorkQueue queue_;  // last: destroyed first, draining tasks while the rest is alive
 };

@@ -25,7 +25,11 @@ absl::Status MapRegistry::CheckRoom(const std::string& id) const {
   if (maps_.contains(id)) {
     return absl::AlreadyExistsError(absl::StrCat("map ", MapName(id), " already exists"));
   }
-  if (maps_.size() >= options_.max_maps) {
+  if (reserved_.contains(id)) {
+    return absl::AlreadyExistsError(
+        absl::StrCat("map ", MapName(id), " already exists (an import of it is under way)"));
+  }
+  if (maps_.size() + reserved_.size() >= options_.max_maps) {
     return absl::ResourceExhaustedError(
         absl::StrCat("at most ", options_.max_maps, " maps per server"));
   }
@@ -52,6 +56,35 @@ absl::Status MapRegistry::AddStored(const std::string& id, const MapConfig& conf
   if (absl::Status s = CheckRoom(id); !s.ok()) return s;
   maps_[id] = Entry{.config = config};
   return absl::OkStatus();
+}
+
+absl::Status MapRegistry::Reserve(const std::string& id) {
+  WriterLock lock(&mu_);
+  if (absl::Status s = CheckRoom(id); !s.ok()) return s;
+  reserved_.insert(id);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::LoadReserved(const std::string& id,
+                                                                   const MapConfig& config) const {
+  std::shared_ptr<LiveMap> map = NewMap(id, config);
+  if (absl::Status s = map->Load(); !s.ok()) {
+    return absl::Status(s.code(),
+                        absl::StrCat("map ", MapName(id), " cannot be loaded: ", s.message()));
+  }
+  return map;
+}
+
+void MapRegistry::Publish(const std::string& id, const MapConfig& config,
+                          std::shared_ptr<LiveMap> map) {
+  WriterLock lock(&mu_);
+  reserved_.erase(id);
+  maps_[id] = Entry{.config = config, .map = std::move(map), .last_used = ++clock_};
+}
+
+void MapRegistry::Release(const std::string& id) {
+  WriterLock lock(&mu_);
+  reserved_.erase(id);
 }
 
 absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Get(const std::string& id) {
@@ -171,6 +204,8 @@ void MapRegistry::Maintain(uint64_t min_records) {
             [](const Loaded& a, const Loaded& b) { return a.last_used < b.last_used; });
   // The most recently used map stays: evicting it would only load it again.
   for (size_t i = 0; i + 1 < loaded.size() && total > options_.memory_budget_bytes; ++i) {
+    // An export reads the store as its snapshot left it: a reload could snapshot anew.
+    if (loaded[i].map->snapshots_held()) continue;
     Evict(loaded[i].id, loaded[i].map);
     total -= loaded[i].bytes;
   }

@@ -12,9 +12,14 @@
 //
 // Eviction: Maintain() snapshots maps with unsnapshotted journal records, then, while the
 // loaded maps' memory exceeds memory_budget_bytes, evicts the least recently used loaded
-// map except the most recent one: its new writes answer Unavailable (retry), the writes
-// already running finish, a snapshot is written, and it leaves memory; the next Get loads
-// it again. Nothing journaled is lost: whatever the snapshot does not cover is replayed.
+// map except the most recent one and those being exported (LiveMap::snapshots_held): its
+// new writes answer Unavailable (retry), the writes already running finish, a snapshot is
+// written, and it leaves memory; the next Get loads it again. Nothing journaled is lost:
+// whatever the snapshot does not cover is replayed.
+//
+// Imports: Reserve takes an id before the map exists (the store is being written), so that
+// no Create of the same id can slip in and no Get can load a half-written map; the import
+// then loads the map itself (LoadReserved) and Publishes it, or Releases the id.
 //
 // Thread safety: thread safe. Returned maps are shared: a map removed by Delete stays alive
 // until its last user lets go, and its queued writes answer NotFound.
@@ -25,6 +30,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -68,6 +74,20 @@ class MapRegistry {
   // (NotFound; a write already running finishes first).
   absl::Status Delete(const std::string& id);
 
+  // Takes `id` for an import without making it a map: Create, AddStored and Reserve of it
+  // answer AlreadyExists, it counts towards max_maps (ResourceExhausted), and Get, List and
+  // Delete do not see it. REQUIRES: ValidateMapId(id) is OK.
+  absl::Status Reserve(const std::string& id);
+  // Loads map `id` from the store (LiveMap::Load), as a first Get would, without making it
+  // visible. The load's error, naming the map. REQUIRES: `id` is reserved.
+  absl::StatusOr<std::shared_ptr<LiveMap>> LoadReserved(const std::string& id,
+                                                        const MapConfig& config) const;
+  // Turns the reservation of `id` into a loaded map served by `map` (from LoadReserved).
+  // REQUIRES: `id` is reserved.
+  void Publish(const std::string& id, const MapConfig& config, std::shared_ptr<LiveMap> map);
+  // Drops the reservation of `id` (no-op if it has none).
+  void Release(const std::string& id);
+
   // Snapshots every loaded map with journal records no snapshot covers (all of them when
   // `min_records` is 1) and evicts beyond the memory budget (see above). Errors are
   // reported on stderr and retried next time.
@@ -91,7 +111,8 @@ class MapRegistry {
   const Options options_;
   mutable RwLock mu_;
   std::map<std::string, Entry> maps_ ABSL_GUARDED_BY(mu_);
-  uint64_t clock_ ABSL_GUARDED_BY(mu_) = 0;  // LRU ticks
+  std::set<std::string> reserved_ ABSL_GUARDED_BY(mu_);  // ids of imports under way
+  uint64_t clock_ ABSL_GUARDED_BY(mu_) = 0;              // LRU ticks
 };
 
 }  // namespace skimap::server

@@ -98,6 +98,12 @@ absl::Status MapService::Recover() {
       std::fprintf(stderr, "skimapd: map %s not loaded: %s\n", MapName(m.id).c_str(),
                    why.ToString().c_str());
     };
+    if (m.importing) {  // the process ended during the import: it never became a map
+      absl::Status s = options_.store->DeleteMap(m.id);
+      std::fprintf(stderr, "skimapd: map %s: removing an import that did not finish%s%s\n",
+                   MapName(m.id).c_str(), s.ok() ? "" : ": ", s.ok() ? "" : s.ToString().c_str());
+      continue;
+    }
     v1::MapOptions proto;
     if (!proto.ParseFromString(m.options)) {
       skip(absl::DataLossError("stored options do not parse"));

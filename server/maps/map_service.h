@@ -18,6 +18,8 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "server/maps/map_exporter.h"
+#include "server/maps/map_importer.h"
 #include "server/maps/map_registry.h"
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
@@ -57,9 +59,10 @@ class MapService {
 
   // Lists every map of options.store and loads each (its latest snapshot, then the journal
   // after it), or registers it to load on first use with lazy_load; then starts the
-  // snapshot thread. A map that cannot be loaded answers its error (naming the map and the
-  // cause) to every request for it; the others load and serve. Errors: the store's, if it
-  // cannot list the maps. REQUIRES: called once, before the service takes requests.
+  // snapshot thread. Maps of imports that did not finish are deleted. A map that cannot be loaded
+  // answers its error (naming the map and the cause) to every request for it; the others load and
+  // serve. Errors: the store's, if it cannot list the maps. REQUIRES: called once, before the
+  // service takes requests.
   absl::Status Recover();
   // Snapshots every map with journal records no snapshot covers (blocking). Also run by the
   // snapshot thread and at destruction.
@@ -84,6 +87,15 @@ class MapService {
   absl::StatusOr<v1::GetVoxelsResponse> GetVoxels(const v1::GetVoxelsRequest& request) const;
   absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(
       const v1::RadiusSearchRequest& request) const;
+
+  // Export and import of whole maps (map_service_transfer.cc); FailedPrecondition without
+  // a store. ExportMap snapshots the map and returns its export file, piece by piece
+  // (map_exporter.h). ImportMap starts an import under `map_id` ("": the file's id; else
+  // validated as CreateMap does, InvalidArgument naming map_id); the caller feeds it the
+  // file (MapImporter::Add) and ends with FinishImport, which answers the new map.
+  absl::StatusOr<std::unique_ptr<MapExporter>> ExportMap(const v1::ExportMapRequest& request);
+  absl::StatusOr<std::unique_ptr<MapImporter>> ImportMap(const std::string& map_id);
+  absl::StatusOr<v1::Map> FinishImport(MapImporter& importer);
 
  private:
   absl::StatusOr<std::shared_ptr<LiveMap>> FindMap(const std::string& name,

@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "storage/fault_injecting_map_store.h"
@@ -192,6 +194,74 @@ TEST_P(MapStoreConformanceTest, DeletingAMapDeletesItsJournalAndChunks) {
   uint64_t position = 0;
   EXPECT_TRUE(Snapshot("m", &position).empty());
   EXPECT_EQ(store_->GetMap("m")->last_position, 0u);
+}
+
+TEST_P(MapStoreConformanceTest, AnImportContinuesTheJournalAfterItsBaseAndIsMarkedUntilFinished) {
+  ASSERT_TRUE(store_->CreateMap("taken", "").ok());
+  EXPECT_EQ(store_->BeginImport("taken", "o", 5).code(), absl::StatusCode::kAlreadyExists);
+  EXPECT_EQ(store_->BeginImport("", "o", 5).code(), absl::StatusCode::kInvalidArgument);
+  ASSERT_TRUE(store_->BeginImport("m", "opts", 40).ok());
+  absl::StatusOr<StoredMap> m = store_->GetMap("m");
+  ASSERT_TRUE(m.ok()) << m.status();
+  EXPECT_TRUE(m->importing);
+  EXPECT_EQ(m->last_position, 40u);
+  EXPECT_EQ(m->options, "opts");
+  EXPECT_FALSE(store_->GetMap("taken")->importing);
+  // A snapshot may cover the base; positions up to it read as pruned.
+  ASSERT_TRUE(store_->WriteSnapshot("m", 0, {{{"rgb", 0, 0, 0}, "A"}}, {}).ok());
+  ASSERT_TRUE(store_->WriteSnapshot("m", 40, {}, {}).ok());
+  EXPECT_EQ(store_->ReadJournalRecord("m", 40).status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(*store_->AppendJournal("m", {{JournalRecord::kFrame, "f41"}}), 41u);
+  EXPECT_EQ(store_->ReadJournalRecord("m", 41)->payload, "f41");
+  Reopen();  // the mark is durable
+  EXPECT_TRUE(store_->ListMaps()->at(0).importing);
+  ASSERT_TRUE(store_->FinishImport("m").ok());
+  EXPECT_FALSE(store_->GetMap("m")->importing);
+  EXPECT_EQ(store_->GetMap("m")->snapshot_position, 40u);
+  EXPECT_EQ(store_->FinishImport("nope").code(), absl::StatusCode::kNotFound);
+}
+
+TEST_P(MapStoreConformanceTest, SnapshotPagesWalkEveryChunkOnceInKeyOrder) {
+  ASSERT_TRUE(store_->CreateMap("m", "").ok());
+  ASSERT_TRUE(store_->CreateMap("other", "").ok());
+  ASSERT_TRUE(store_->AppendJournal("m", {{JournalRecord::kFrame, "1"}}).ok());
+  std::vector<Chunk> chunks;
+  for (const char* volume : {"rgb", "free", "frames"}) {
+    for (int64_t x : {-3, 0, 2}) {
+      for (int64_t z : {-1, 7}) chunks.push_back({{volume, x, 1, z}, absl::StrCat(volume, x, z)});
+    }
+  }
+  ASSERT_TRUE(store_->WriteSnapshot("m", 1, chunks, {}).ok());
+  ASSERT_TRUE(store_->WriteSnapshot("other", 0, {{{"rgb", 0, 0, 0}, "O"}}, {}).ok());
+  for (size_t limit : {1, 4, 100}) {
+    SCOPED_TRACE(limit);
+    std::vector<ChunkKey> keys;
+    std::optional<ChunkKey> after;
+    for (;;) {
+      size_t n = 0;
+      absl::StatusOr<uint64_t> covered =
+          store_->ReadSnapshotPage("m", after, limit, [&](const Chunk& c) {
+            EXPECT_EQ(c.bytes, absl::StrCat(c.key.volume, c.key.x, c.key.z));
+            keys.push_back(c.key);
+            ++n;
+            return absl::OkStatus();
+          });
+      ASSERT_TRUE(covered.ok()) << covered.status();
+      EXPECT_EQ(*covered, 1u);
+      EXPECT_LE(n, limit);
+      if (n == 0) break;
+      after = keys.back();
+    }
+    ASSERT_EQ(keys.size(), chunks.size());
+    EXPECT_TRUE(std::is_sorted(keys.begin(), keys.end()));
+    EXPECT_EQ(std::adjacent_find(keys.begin(), keys.end()), keys.end());
+  }
+  EXPECT_EQ(
+      store_
+          ->ReadSnapshotPage("nope", std::nullopt, 1, [](const Chunk&) { return absl::OkStatus(); })
+          .status()
+          .code(),
+      absl::StatusCode::kNotFound);
 }
 
 TEST_P(MapStoreConformanceTest, AFailedWriteChangesNothingAndWritesSucceedAfterIt) {

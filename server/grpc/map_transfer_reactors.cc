@@ -1,0 +1,60 @@
+#include "server/grpc/map_transfer_reactors.h"
+
+#include <utility>
+
+#include "server/grpc/grpc_status.h"
+
+namespace skimap::server {
+
+ExportWriteReactor::ExportWriteReactor(MapService* core, const v1::ExportMapRequest& request) {
+  absl::StatusOr<std::unique_ptr<MapExporter>> exporter = core->ExportMap(request);
+  if (!exporter.ok()) {
+    Finish(ToGrpcStatus(exporter.status()));
+    return;
+  }
+  exporter_ = *std::move(exporter);
+  WriteNext();
+}
+
+void ExportWriteReactor::OnWriteDone(bool ok) {
+  if (!ok) return Finish(grpc::Status(grpc::StatusCode::CANCELLED, "client went away"));
+  WriteNext();
+}
+
+void ExportWriteReactor::WriteNext() {
+  absl::StatusOr<std::optional<std::string>> piece = exporter_->Next();
+  if (!piece.ok()) return Finish(ToGrpcStatus(piece.status()));
+  if (!piece->has_value()) return Finish(grpc::Status::OK);
+  piece_.set_data(**std::move(piece));
+  StartWrite(&piece_);
+}
+
+ImportReadReactor::ImportReadReactor(MapService* core, grpc::CallbackServerContext* ctx,
+                                     v1::Map* response)
+    : core_(core), ctx_(ctx), response_(response) {
+  StartRead(&piece_);
+}
+
+void ImportReadReactor::End(const absl::Status& s) {
+  importer_.reset();  // an unfinished import deletes what it wrote
+  Finish(ToGrpcStatus(s));
+}
+
+void ImportReadReactor::OnReadDone(bool ok) {
+  if (!ok && ctx_->IsCancelled()) return End(absl::CancelledError("import cancelled"));
+  if (importer_ == nullptr) {  // the first message (or an empty stream)
+    absl::StatusOr<std::unique_ptr<MapImporter>> importer =
+        core_->ImportMap(ok ? piece_.map_id() : "");
+    if (!importer.ok()) return End(importer.status());
+    importer_ = *std::move(importer);
+  }
+  if (!ok) {  // the client sent the whole file
+    absl::StatusOr<v1::Map> map = core_->FinishImport(*importer_);
+    if (map.ok()) *response_ = *std::move(map);
+    return End(map.status());
+  }
+  if (absl::Status s = importer_->Add(piece_.data()); !s.ok()) return End(s);
+  StartRead(&piece_);
+}
+
+}  // namespace skimap::server

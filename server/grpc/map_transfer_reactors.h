@@ -1,0 +1,57 @@
+// The gRPC side of ExportMap and ImportMap (callback API): each reactor moves the pieces of
+// an export file between the call and the core's MapExporter / MapImporter.
+//
+// ExportWriteReactor: one piece per write, the next one made when the previous write is
+// done, so a slow client holds the export back (HTTP/2 flow control) instead of a server
+// buffer growing. ImportReadReactor: one piece per read, added to the import before the next
+// read; the first message may carry the new map id. An error, or a cancelled call, ends the
+// import and deletes whatever it wrote before the call finishes.
+//
+// Thread safety: gRPC runs one reactor callback of a call at a time; no state is shared.
+#ifndef SERVER_GRPC_MAP_TRANSFER_REACTORS_H_
+#define SERVER_GRPC_MAP_TRANSFER_REACTORS_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+
+#include "server/maps/map_service.h"
+#include "skimap/v1/maps.pb.h"
+
+namespace skimap::server {
+
+class ExportWriteReactor final : public grpc::ServerWriteReactor<v1::ExportChunk> {
+ public:
+  // REQUIRES: core outlives the call. Deletes itself in OnDone.
+  ExportWriteReactor(MapService* core, const v1::ExportMapRequest& request);
+  void OnWriteDone(bool ok) override;
+  void OnDone() override { delete this; }
+
+ private:
+  void WriteNext();
+
+  std::unique_ptr<MapExporter> exporter_;
+  v1::ExportChunk piece_;
+};
+
+class ImportReadReactor final : public grpc::ServerReadReactor<v1::ExportChunk> {
+ public:
+  // REQUIRES: core outlives the call. Deletes itself in OnDone.
+  ImportReadReactor(MapService* core, grpc::CallbackServerContext* ctx, v1::Map* response);
+  void OnReadDone(bool ok) override;
+  void OnDone() override { delete this; }
+
+ private:
+  // Ends the call with `s`, after the import (if any) was ended.
+  void End(const absl::Status& s);
+
+  MapService* const core_;
+  grpc::CallbackServerContext* const ctx_;
+  v1::Map* const response_;
+  std::unique_ptr<MapImporter> importer_;  // from the first message on
+  v1::ExportChunk piece_;
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_GRPC_MAP_TRANSFER_REACTORS_H_
