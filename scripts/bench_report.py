@@ -3,8 +3,11 @@
 with peer/SkiMap ratios and the issue's floors marked PASS / FAIL.
 
 Usage: scripts/bench_report.py RESULTS_DIR [--update docs/benchmarks.md]
+       scripts/bench_report.py --splice NAME TABLES.md docs/benchmarks.md
 Without --update the tables go to stdout. With it, the part of the file between the
-GENERATED markers is replaced (the rest of the file is left alone).
+GENERATED markers is replaced (the rest of the file is left alone). --splice puts the
+markdown a plain benchmark program printed (storage_bench) between the markers
+"<!-- BEGIN GENERATED (NAME) -->" and "<!-- END GENERATED (NAME) -->".
 """
 import glob
 import json
@@ -261,9 +264,28 @@ def context_lines(context, runs):
             "wall time for the multi-threaded SkiMapPool.", ""]
 
 
+def splice(name, tables_path, doc_path):
+    begin, end = f"<!-- BEGIN GENERATED ({name}) -->", f"<!-- END GENERATED ({name}) -->"
+    with open(tables_path) as f:
+        text = f.read().strip()
+    with open(doc_path) as f:
+        doc = f.read()
+    if begin not in doc or end not in doc:
+        sys.exit(f"{doc_path}: missing the markers {begin} / {end}")
+    head, rest = doc.split(begin, 1)
+    tail = rest.split(end, 1)[1]
+    with open(doc_path, "w") as f:
+        f.write(f"{head}{begin}\n{text}\n{end}{tail}")
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
+    if sys.argv[1] == "--splice":
+        if len(sys.argv) != 5:
+            sys.exit(__doc__)
+        splice(*sys.argv[2:5])
+        return
     runs, context, errors = load(sys.argv[1])
     if not runs:
         sys.exit(f"no benchmark results in {sys.argv[1]}")
