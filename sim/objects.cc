@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -27,10 +28,10 @@ Mesh Cyl(float r, float h, Texture side, Texture cap, int seg = 24) {
   return MakeFrustum(r, r, 0, h, seg, std::move(side), std::move(cap));
 }
 
-// A box standing on z = 0.
+// A printed box (every face different, as on real packaging) standing on z = 0.
 Mesh BoxOnFloor(Vector3f size, Texture t) {
   Mesh m;
-  m.Append(MakeBox(size, std::move(t)), At(0, 0, size.z() / 2));
+  m.Append(MakePrintedBox(size, std::move(t)), At(0, 0, size.z() / 2));
   return m;
 }
 
@@ -72,7 +73,7 @@ Mesh Design(int index, const Texture& t, const Texture& alt) {
     case 9:  // desk lamp-like composite: base, pole, head
       m = BoxOnFloor({0.12f, 0.12f, 0.025f}, alt);
       m.Append(Cyl(0.012f, 0.18f, grey, grey, 12), At(0, 0, 0.025f));
-      m.Append(MakeBox({0.14f, 0.07f, 0.06f}, t), At(0.03f, 0, 0.235f));
+      m.Append(MakePrintedBox({0.14f, 0.07f, 0.06f}, t), At(0.03f, 0, 0.235f));
       return m;
     case 10:  // paper cup (tapered)
       return MakeFrustum(0.03f, 0.042f, 0, 0.095f, 24, t, dark);
@@ -126,14 +127,57 @@ absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int ma
   return out;
 }
 
+std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
+  // Detail: ORB keypoints whose descriptor has no near twin (Hamming > 50) elsewhere in the
+  // same picture, per pixel: a repeated pattern has many keypoints but few distinct ones.
+  cv::Ptr<cv::ORB> orb = cv::ORB::create(500);
+  std::vector<std::pair<double, size_t>> score;
+  std::vector<cv::Mat> thumbs;
+  for (size_t i = 0; i < textures.size(); ++i) {
+    cv::Mat gray;
+    cv::cvtColor(*textures[i], gray, cv::COLOR_BGR2GRAY);
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat d;
+    orb->detectAndCompute(gray, cv::noArray(), keypoints, d);
+    int distinct = 0;
+    for (int a = 0; a < d.rows; ++a) {
+      double nearest = 256;
+      for (int b = 0; b < d.rows; ++b) {
+        if (a != b) nearest = std::min(nearest, cv::norm(d.row(a), d.row(b), cv::NORM_HAMMING));
+      }
+      distinct += nearest > 50;
+    }
+    score.push_back({static_cast<double>(distinct) / gray.total(), i});
+    cv::Mat t;
+    cv::resize(gray, t, cv::Size(16, 16), 0, 0, cv::INTER_AREA);
+    t.convertTo(t, CV_32F);
+    cv::Scalar mean, sd;
+    cv::meanStdDev(t, mean, sd);
+    thumbs.push_back((t - mean[0]) / (sd[0] + 1e-6));
+  }
+  std::stable_sort(score.begin(), score.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  // Near twins (stereo pairs, frames of one sequence) go to the end: objects must differ.
+  std::vector<size_t> out, twins;
+  for (const auto& [s, i] : score) {
+    const bool twin = std::any_of(out.begin(), out.end(), [&](size_t k) {
+      return thumbs[i].dot(thumbs[k]) / thumbs[i].total() > 0.6;
+    });
+    (twin ? twins : out).push_back(i);
+  }
+  out.insert(out.end(), twins.begin(), twins.end());
+  return out;
+}
+
 std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count) {
   std::vector<ObjectModel> out;
   const size_t n = textures.size();
+  const std::vector<size_t> rank = RankByDetail(textures);
   for (int i = 0; i < count && i < kNumObjectDesigns; ++i) {
     ObjectModel o;
     o.obj_id = i + 1;
     o.name = kNames[i];
-    o.mesh = Design(i, textures[i % n], Darker(textures[(i + 5) % n], 0.8));
+    o.mesh = Design(i, textures[rank[i % n]], Darker(textures[rank[(i + 5) % n]], 0.8));
     CentreMesh(o.mesh);
     out.push_back(std::move(o));
   }
@@ -155,7 +199,8 @@ std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int coun
         break;
       case 2:  // flower pot with plant block
         m = MakeFrustum(0.05f, 0.07f, 0, 0.12f, 20, FlatTexture(60, 90, 160), nullptr);
-        m.Append(MakeBox({0.10f, 0.10f, 0.12f}, t), Affine3f(Eigen::Translation3f(0, 0, 0.18f)));
+        m.Append(MakePrintedBox({0.10f, 0.10f, 0.12f}, t),
+                 Affine3f(Eigen::Translation3f(0, 0, 0.18f)));
         break;
       default:  // stack of two boxes
         m = BoxOnFloor({0.12f, 0.12f, 0.08f}, t);

@@ -33,8 +33,14 @@ struct ObjectModel {
 // The number of distinct database object designs (ids 1..kNumObjectDesigns).
 inline constexpr int kNumObjectDesigns = 12;
 
-// Makes database objects 1..count (count <= kNumObjectDesigns), textures assigned in order
-// (cycling if there are fewer textures than objects). REQUIRES: textures non-empty.
+// Texture indices by detail, most detailed first (distinct ORB keypoints per pixel), near
+// twins of a picture ranked before them (thumbnails correlating above 0.6) moved last.
+std::vector<size_t> RankByDetail(const std::vector<Texture>& textures);
+
+// Makes database objects 1..count (count <= kNumObjectDesigns). Like printed packaging,
+// they get the most detailed photographs (RankByDetail order, cycling if there are fewer
+// textures than objects): a logo on a plain ground gives a recogniser nothing to work
+// with, on any object. REQUIRES: textures non-empty.
 std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count);
 
 // Makes `count` distractor meshes (origin at bbox centre), textured from the end of the

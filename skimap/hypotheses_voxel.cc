@@ -102,11 +102,12 @@ void InstancesVoxel::Encode(Encoder& e) const {
     e.U64(static_cast<uint64_t>(i.last_time_us));
     e.F32(i.spread_t);
     e.F32(i.spread_r);
+    e.F32(i.fit);
   }
 }
 
 bool InstancesVoxel::Decode(Decoder& d, InstancesVoxel* v) {
-  constexpr size_t kBytes = 8 + 4 + 7 * 4 + 4 + 4 + 4 + 4 * 8 + 2 * 4;
+  constexpr size_t kBytes = 8 + 4 + 7 * 4 + 4 + 4 + 4 + 4 * 8 + 3 * 4;
   uint32_t n;
   if (!d.U32(&n) || n > d.remaining() / kBytes) return false;
   std::vector<Instance> items(n);
@@ -116,7 +117,7 @@ bool InstancesVoxel::Decode(Decoder& d, InstancesVoxel* v) {
     if (!d.U64(&i.id) || !d.U32(&i.object_id) || !DecodePose(d, &i.t, &i.q) || !d.F32(&i.score) ||
         !d.U32(&i.support) || !d.U32(&i.frames) || !d.U64(&i.first_frame) ||
         !d.U64(&i.last_frame) || !d.U64(&first_time) || !d.U64(&last_time) || !d.F32(&i.spread_t) ||
-        !d.F32(&i.spread_r)) {
+        !d.F32(&i.spread_r) || !d.F32(&i.fit)) {
       return false;
     }
     i.first_time_us = static_cast<int64_t>(first_time);

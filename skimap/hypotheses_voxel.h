@@ -41,6 +41,7 @@ struct Instance {
   int64_t first_time_us = 0, last_time_us = 0;  // those frames' timestamps (unix µs)
   float spread_t = 0;  // RMS distance of the supporting hypotheses to t, metres
   float spread_r = 0;  // RMS angle of their rotations to q, radians
+  float fit = 0;       // agreement with the map's surface and colour, 0..1
   friend bool operator==(const Instance&, const Instance&) = default;
 };
 

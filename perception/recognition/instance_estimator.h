@@ -43,6 +43,7 @@ struct InstanceEstimate {
   uint64_t first_frame = 0, last_frame = 0;  // smallest and largest of those frames
   float spread_t = 0;                        // RMS distance of the members to t, metres
   float spread_r = 0;                        // RMS angle of the members to q, radians
+  float fit = 0;  // set by the caller's verification against the map (0 here)
 };
 
 // Angle between two rotations, radians in [0, pi].

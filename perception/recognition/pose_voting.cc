@@ -108,6 +108,37 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
                cumulative.begin()) %
            n;
   };
+  // Local sampling: the second and third match of a triple lie within the object's
+  // diameter of the first in the world (an object's true matches do; most outliers, spread
+  // over the sphere, do not), found through a hash grid of that cell size.
+  const float diameter = 2 * shape.radius;
+  const float inv_cell = 1.0f / std::max(diameter, 0.01f);
+  auto cell_of = [&](const Eigen::Vector3f& p) {
+    return Cell{static_cast<int32_t>(std::floor(p.x() * inv_cell)),
+                static_cast<int32_t>(std::floor(p.y() * inv_cell)),
+                static_cast<int32_t>(std::floor(p.z() * inv_cell))};
+  };
+  absl::flat_hash_map<Cell, std::vector<uint32_t>> grid;
+  for (size_t i = 0; i < n; ++i)
+    grid[cell_of(matches[i].world)].push_back(static_cast<uint32_t>(i));
+  std::vector<uint32_t> near;
+  auto neighbours = [&](size_t first) {
+    near.clear();
+    const Cell c = cell_of(matches[first].world);
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          auto it = grid.find(Cell{c.x + dx, c.y + dy, c.z + dz});
+          if (it == grid.end()) continue;
+          for (uint32_t j : it->second) {
+            if (j != first && (matches[j].world - matches[first].world).norm() <= diameter) {
+              near.push_back(j);
+            }
+          }
+        }
+      }
+    }
+  };
 
   // Votes: the transforms, and per bin the indices of those that voted for it.
   std::vector<Eigen::Isometry3f> transforms;
@@ -115,8 +146,12 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
   const float reach = sphere.radius + shape.radius;
   const float inv_bin = 1.0f / options.bin;
   for (int k = 0; k < options.triples; ++k) {
-    const size_t i = draw(), j = draw(), l = draw();
-    if (i == j || j == l || i == l) continue;
+    const size_t i = draw();
+    neighbours(i);
+    if (near.size() < 2) continue;
+    std::uniform_int_distribution<size_t> pick(0, near.size() - 1);
+    const size_t j = near[pick(rng)], l = near[pick(rng)];
+    if (j == l) continue;
     if (!Consistent(matches[i], matches[j], matches[l], options)) continue;
     const LabelMatch triple[3] = {matches[i], matches[j], matches[l]};
     const Eigen::Isometry3f t = FitRigid(triple);
@@ -130,10 +165,18 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
   }
 
   std::vector<std::pair<int, Cell>> peaks;
+  // A bin's votes count with its 26 neighbours': votes of one pose straddle bin borders.
   for (const auto& [cell, votes] : bins) {
-    if (static_cast<int>(votes.size()) >= options.min_votes) {
-      peaks.push_back({static_cast<int>(votes.size()), cell});
+    int total = 0;
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          auto it = bins.find(Cell{cell.x + dx, cell.y + dy, cell.z + dz});
+          if (it != bins.end()) total += static_cast<int>(it->second.size());
+        }
+      }
     }
+    if (total >= options.min_votes) peaks.push_back({total, cell});
   }
   std::sort(peaks.begin(), peaks.end(), [](const auto& a, const auto& b) {
     if (a.first != b.first) return a.first > b.first;

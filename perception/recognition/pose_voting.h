@@ -5,16 +5,17 @@
 //
 // A match pairs a Labels-volume voxel (its centre p, world frame) with the model-frame
 // centre v of the voxel its label's class stands for (Eq. 8), weighted by the label's
-// count. Each of `triples` random triples (drawn with probability proportional to the
-// weights) that passes the geometric checks — every pair as far apart in the world as in
-// the model (within `consistency`), sides at least `min_side`, not collinear — gives a
-// rigid transform (least squares, fit_rigid below), which votes for the bin of the 3D
-// Hough grid (edge `bin`, over the sphere) holding the transformed base point. The base,
-// not the centroid, makes a false triple whose centroid lands near the true one vote
-// elsewhere (Fig. 7). Bins with at least `min_votes` votes are peaks (the best
-// `max_peaks`, no two adjacent); a peak's transforms (its bin and the 26 around it) are
-// scored by their inlier matches (p within `inlier_distance` of T·v, weights summed), the
-// best is refit on its inliers (RefinePose), and kept when its score reaches `min_score`.
+// count. Each of `triples` random triples (the first match drawn with probability
+// proportional to the weights, the other two uniformly among the matches within the
+// object's diameter of it in the world) that passes the geometric checks — every pair as far apart
+// in the world as in the model (within `consistency`), sides at least `min_side`, not collinear —
+// gives a rigid transform (least squares, fit_rigid below), which votes for the bin of the 3D Hough
+// grid (edge `bin`, over the sphere) holding the transformed base point. The base, not the
+// centroid, makes a false triple whose centroid lands near the true one vote elsewhere (Fig. 7).
+// Bins with at least `min_votes` votes in their 3x3x3 neighbourhood are peaks (the best
+// `max_peaks`, no two adjacent); a peak's transforms (its bin and the 26 around it) are scored by
+// their inlier matches (p within `inlier_distance` of T·v, weights summed), the best is refit on
+// its inliers (RefinePose), and kept when its score reaches `min_score`.
 //
 // Thread safety: pure functions (the caller's rng aside).
 #ifndef PERCEPTION_RECOGNITION_POSE_VOTING_H_

@@ -12,9 +12,10 @@ namespace skimap::recognition {
 namespace {
 
 // Bounding box of the object's trained surface in the model frame: its RGB volume when it
-// has one, else its descriptor voxels.
+// has one, else its descriptor voxels. `surface` gets up to kSurfacePoints of the RGB
+// volume's voxels, evenly taken.
 void Extent(const objects::ObjectModel& o, double resolution, Eigen::Vector3f* lo,
-            Eigen::Vector3f* hi) {
+            Eigen::Vector3f* hi, std::vector<SurfacePoint>* surface) {
   *lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   *hi = -*lo;
   auto add = [&](const Eigen::Vector3f& p) {
@@ -26,8 +27,14 @@ void Extent(const objects::ObjectModel& o, double resolution, Eigen::Vector3f* l
         DeserializeMap<RGBWeightedVoxel>(o.rgb_volume, {});
     if (rgb.ok() && !(*rgb)->empty()) {
       const double r = (*rgb)->grid().resolution();
-      (*rgb)->ForEach([&](const VoxelKey& k, const RGBWeightedVoxel&) {
-        add(objects::VoxelCenter(k, r).cast<float>());
+      const size_t step = std::max<size_t>(1, (*rgb)->size() / kSurfacePoints);
+      size_t i = 0;
+      (*rgb)->ForEach([&](const VoxelKey& k, const RGBWeightedVoxel& v) {
+        const Eigen::Vector3f p = objects::VoxelCenter(k, r).cast<float>();
+        add(p);
+        if (i++ % step == 0 && surface->size() < kSurfacePoints) {
+          surface->push_back({p, Eigen::Vector3f(v.Red(), v.Green(), v.Blue())});
+        }
       });
       return;
     }
@@ -51,9 +58,10 @@ absl::StatusOr<RecognitionModel> RecognitionModel::Create(
     s.name = o.name;
     s.wanted = obj_ids.empty();
     Eigen::Vector3f lo, hi;
-    Extent(o, res, &lo, &hi);
+    Extent(o, res, &lo, &hi, &s.surface);
     s.centre = (lo + hi) / 2;
     s.base = {s.centre.x(), s.centre.y(), lo.z()};
+    s.half_extent = (hi - lo) / 2;
     s.radius = std::max(0.5f * (hi - lo).norm(), float(res));
     m.objects_.push_back(std::move(s));
   }

@@ -21,6 +21,12 @@
 
 namespace skimap::recognition {
 
+// A point of an object's trained surface (its RGB volume), model frame, with its colour.
+struct SurfacePoint {
+  Eigen::Vector3f p = Eigen::Vector3f::Zero();
+  Eigen::Vector3f rgb = Eigen::Vector3f::Zero();  // 0..255
+};
+
 struct ObjectShape {
   int obj_id = 0;
   std::string name;
@@ -30,8 +36,14 @@ struct ObjectShape {
   // §4.2) and half its diagonal.
   Eigen::Vector3f centre = Eigen::Vector3f::Zero();
   Eigen::Vector3f base = Eigen::Vector3f::Zero();
+  Eigen::Vector3f half_extent = Eigen::Vector3f::Zero();  // of the bounding box, about centre
   float radius = 0;
+  // Up to kSurfacePoints points of the trained surface, evenly taken (for verifying a pose
+  // against the map's RGB volume); empty when the object has no RGB volume.
+  std::vector<SurfacePoint> surface;
 };
+
+inline constexpr size_t kSurfacePoints = 400;
 
 class RecognitionModel {
  public:

@@ -36,13 +36,16 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
     service.store = s->store_.get();
   }
   service.max_reply_bytes = std::min<size_t>(service.max_reply_bytes, options.max_message_bytes);
-  s->core_ = std::make_unique<MapService>(service);
-  if (absl::Status recovered = s->core_->Recover(); !recovered.ok()) return recovered;
-  s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
+  // Objects first: maps with recognition take the classifier when they load.
   absl::StatusOr<std::unique_ptr<ObjectService>> objects = ObjectService::Create(options.objects);
   if (!objects.ok()) return objects.status();
   s->objects_ = *std::move(objects);
   s->grpc_objects_ = std::make_unique<GrpcObjectService>(s->objects_.get());
+  ObjectRegistry* registry = &s->objects_->registry();
+  service.classifier = [registry] { return registry->classifier(); };
+  s->core_ = std::make_unique<MapService>(service);
+  if (absl::Status recovered = s->core_->Recover(); !recovered.ok()) return recovered;
+  s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
   grpc::ServerBuilder builder;
   // gRPC sets SO_REUSEPORT by default: a second skimapd on the same port would start and
   // take half of the connections. Fail to start instead.

@@ -69,10 +69,10 @@ class GrpcServer {
   GrpcServer() = default;
 
   std::unique_ptr<storage::MapStore> store_;  // before core_: outlives it
+  std::unique_ptr<ObjectService> objects_;    // before core_: maps ask it for the classifier
+  std::unique_ptr<GrpcObjectService> grpc_objects_;
   std::unique_ptr<MapService> core_;
   std::unique_ptr<GrpcMapService> grpc_service_;
-  std::unique_ptr<ObjectService> objects_;
-  std::unique_ptr<GrpcObjectService> grpc_objects_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
 };

@@ -5,7 +5,9 @@
 // UpdatePoses, GetOccupancyGrid, GetHeightMap, GetVoxels, RadiusSearch (unary);
 // StreamFrames (bidi, FrameStreamReactor); StreamVoxels (server stream of GetVoxels pages);
 // ExportMap (server stream) and ImportMap (client stream) of export file pieces
-// (map_transfer_reactors.h), whose store work runs on the adapter's own threads.
+// (map_transfer_reactors.h), whose store work runs on the adapter's own threads;
+// ListInstances, GetInstance (unary) and WatchInstances (server stream of events,
+// instance_watch_reactor.h).
 //
 // Thread safety: safe for concurrent calls; no state but the core pointer and the threads
 // for blocking steps.
@@ -71,6 +73,14 @@ class GrpcMapService final : public v1::MapService::CallbackService {
       grpc::CallbackServerContext* ctx, const v1::ExportMapRequest* request) override;
   grpc::ServerReadReactor<v1::ExportChunk>* ImportMap(grpc::CallbackServerContext* ctx,
                                                       v1::Map* response) override;
+  grpc::ServerUnaryReactor* ListInstances(grpc::CallbackServerContext* ctx,
+                                          const v1::ListInstancesRequest* request,
+                                          v1::ListInstancesResponse* response) override;
+  grpc::ServerUnaryReactor* GetInstance(grpc::CallbackServerContext* ctx,
+                                        const v1::GetInstanceRequest* request,
+                                        v1::Instance* response) override;
+  grpc::ServerWriteReactor<v1::InstanceEvent>* WatchInstances(
+      grpc::CallbackServerContext* ctx, const v1::WatchInstancesRequest* request) override;
 
  private:
   MapService* const core_;

@@ -42,6 +42,17 @@ std::shared_ptr<LiveMap> MapRegistry::NewMap(const std::string& id, const MapCon
   return std::make_shared<LiveMap>(id, options);
 }
 
+void MapRegistry::ForEachLoaded(const std::function<void(LiveMap&)>& fn) const {
+  std::vector<std::shared_ptr<LiveMap>> loaded;
+  {
+    ReaderLock lock(&mu_);
+    for (const auto& [id, e] : maps_) {
+      if (e.map != nullptr) loaded.push_back(e.map);
+    }
+  }
+  for (const std::shared_ptr<LiveMap>& map : loaded) fn(*map);
+}
+
 absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Create(const std::string& id,
                                                              const MapConfig& config) {
   WriterLock lock(&mu_);

@@ -27,6 +27,7 @@
 #define SERVER_MAPS_MAP_REGISTRY_H_
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -59,6 +60,9 @@ class MapRegistry {
   };
 
   explicit MapRegistry(const Options& options) : options_(options) {}
+
+  // Calls fn(map) for every loaded map (outside the registry's lock).
+  void ForEachLoaded(const std::function<void(LiveMap&)>& fn) const;
 
   // A new empty map, loaded. AlreadyExists if `id` is taken; ResourceExhausted beyond
   // max_maps. REQUIRES: ValidateMapId(id) is OK.

@@ -18,6 +18,7 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
   r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
   r.map_defaults.store = o.store;
   r.map_defaults.journal_retain_bytes = o.journal_retain_bytes;
+  r.map_defaults.classifier = o.classifier;
   r.max_maps = o.max_maps;
   r.memory_budget_bytes = o.memory_budget_bytes;
   return r;
@@ -39,8 +40,11 @@ MapService::~MapService() {
     maintenance_cv_.notify_all();
     maintenance_.join();
   }
-  // A last snapshot makes the next start replay nothing.
-  if (options_.store != nullptr) SnapshotAll();
+  // A last snapshot makes the next start replay nothing (recognition finished first).
+  if (options_.store != nullptr) {
+    registry_.ForEachLoaded([](LiveMap& map) { map.FlushRecognition(); });
+    SnapshotAll();
+  }
 }
 
 void MapService::MaintenanceLoop() {
@@ -128,6 +132,7 @@ absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& reques
   if (absl::Status s = ValidateMapId(request.map_id(), "map_id"); !s.ok()) return s;
   absl::StatusOr<MapConfig> config = ResolveMapOptions(request.options());
   if (!config.ok()) return config.status();
+  if (absl::Status s = CheckRecognition(config->recognition); !s.ok()) return s;
   absl::StatusOr<std::shared_ptr<LiveMap>> map = registry_.Create(request.map_id(), *config);
   if (!map.ok()) return map.status();
   if (options_.store != nullptr) {
@@ -140,6 +145,23 @@ absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& reques
     }
   }
   return Describe({.id = request.map_id(), .config = *config, .map = *map});
+}
+
+absl::Status MapService::CheckRecognition(const RecognitionConfig& config) const {
+  if (!config.enabled) return absl::OkStatus();
+  std::shared_ptr<const objects::ObjectDatabase> db =
+      options_.classifier ? options_.classifier() : nullptr;
+  if (db == nullptr) {
+    return absl::FailedPreconditionError(
+        "options.recognition.enabled: the server has no object classifier yet (train objects "
+        "and build it: skimap objects train, skimap objects build)");
+  }
+  absl::StatusOr<recognition::RecognitionModel> model =
+      recognition::RecognitionModel::Create(std::move(db), config.obj_ids);
+  if (!model.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("options.", model.status().message()));
+  }
+  return absl::OkStatus();
 }
 
 absl::StatusOr<v1::Map> MapService::GetMap(const v1::GetMapRequest& request) const {
