@@ -2,6 +2,7 @@
 #include "sim/objects.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -133,6 +134,7 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
   cv::Ptr<cv::ORB> orb = cv::ORB::create(500);
   std::vector<std::pair<double, size_t>> score;
   std::vector<cv::Mat> thumbs;
+  std::vector<double> colourful;
   for (size_t i = 0; i < textures.size(); ++i) {
     cv::Mat gray;
     cv::cvtColor(*textures[i], gray, cv::COLOR_BGR2GRAY);
@@ -148,6 +150,15 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
       distinct += nearest > 50;
     }
     score.push_back({static_cast<double>(distinct) / gray.total(), i});
+    // Colourfulness (Hasler and Suesstrunk 2003): printed packaging is colourful.
+    cv::Mat f;
+    textures[i]->convertTo(f, CV_32F);
+    std::vector<cv::Mat> bgr;
+    cv::split(f, bgr);
+    cv::Scalar m_rg, s_rg, m_yb, s_yb;
+    cv::meanStdDev(bgr[2] - bgr[1], m_rg, s_rg);
+    cv::meanStdDev(0.5 * (bgr[2] + bgr[1]) - bgr[0], m_yb, s_yb);
+    colourful.push_back(std::hypot(s_rg[0], s_yb[0]) + 0.3 * std::hypot(m_rg[0], m_yb[0]));
     cv::Mat t;
     cv::resize(gray, t, cv::Size(16, 16), 0, 0, cv::INTER_AREA);
     t.convertTo(t, CV_32F);
@@ -157,13 +168,15 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
   }
   std::stable_sort(score.begin(), score.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
-  // Near twins (stereo pairs, frames of one sequence) go to the end: objects must differ.
+  // Near twins (stereo pairs, frames of one sequence) and dull pictures (colourfulness under
+  // 40: a green circuit board, grey facades) go to the end: objects must differ and look
+  // like packaging.
   std::vector<size_t> out, twins;
   for (const auto& [s, i] : score) {
     const bool twin = std::any_of(out.begin(), out.end(), [&](size_t k) {
       return thumbs[i].dot(thumbs[k]) / thumbs[i].total() > 0.6;
     });
-    (twin ? twins : out).push_back(i);
+    (twin || colourful[i] < 40 ? twins : out).push_back(i);
   }
   out.insert(out.end(), twins.begin(), twins.end());
   return out;

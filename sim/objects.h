@@ -33,8 +33,9 @@ struct ObjectModel {
 // The number of distinct database object designs (ids 1..kNumObjectDesigns).
 inline constexpr int kNumObjectDesigns = 12;
 
-// Texture indices by detail, most detailed first (distinct ORB keypoints per pixel), near
-// twins of a picture ranked before them (thumbnails correlating above 0.6) moved last.
+// Texture indices by detail, most detailed first (distinct ORB keypoints per pixel); near
+// twins of a picture ranked before them (thumbnails correlating above 0.6) and dull
+// pictures (colourfulness under 40) moved last.
 std::vector<size_t> RankByDetail(const std::vector<Texture>& textures);
 
 // Makes database objects 1..count (count <= kNumObjectDesigns). Like printed packaging,
