@@ -274,12 +274,11 @@ class Reconciler {
   }
 
   bool Visible(const Instance& i) const {
-    return i.id != 0 && i.score >= params_.min_instance_score;
+    return i.id != 0 && i.score >= params_.min_instance_score && i.fit >= params_.min_instance_fit;
   }
 
   void Update(Instance& inst, const InstanceEstimate& e, uint32_t obj_id) {
     const Instance before = inst;
-    const bool was_visible = before.support > 0 && Visible(before);
     inst.object_id = obj_id;
     inst.t = {e.t.x(), e.t.y(), e.t.z()};
     inst.q = {e.q.w(), e.q.x(), e.q.y(), e.q.z()};
@@ -296,19 +295,33 @@ class Reconciler {
       inst.last_frame = e.last_frame;
     }
     Put(inst);
-    const bool visible = Visible(inst);
+    Transition(before, inst);
+  }
+
+  // Emits what `before` -> `after` means to a client that sees visible instances only:
+  // CREATED, REMOVED, or UPDATED (moved 1 mm / 0.2 degrees, or new support). A `before`
+  // without support is a new instance.
+  void Transition(const Instance& before, const Instance& after) {
+    const bool was_visible = before.support > 0 && Visible(before);
+    const bool visible = Visible(after);
     if (visible && !was_visible) {
-      Emit(v1::InstanceEvent::CREATED, inst, 0);
+      Emit(v1::InstanceEvent::CREATED, after, 0);
     } else if (!visible && was_visible) {
-      Emit(v1::InstanceEvent::REMOVED, inst, 0);
+      Emit(v1::InstanceEvent::REMOVED, after, 0);
     } else if (visible) {
       const bool moved =
-          (PositionOf(inst) - PositionOf(before)).norm() >= kMovedDistance ||
-          recognition::RotationAngle(RotationOf(inst), RotationOf(before)) >= kMovedAngle;
-      if (moved || inst.support != before.support || inst.frames != before.frames) {
-        Emit(v1::InstanceEvent::UPDATED, inst, 0);
+          (PositionOf(after) - PositionOf(before)).norm() >= kMovedDistance ||
+          recognition::RotationAngle(RotationOf(after), RotationOf(before)) >= kMovedAngle;
+      if (moved || after.support != before.support || after.frames != before.frames) {
+        Emit(v1::InstanceEvent::UPDATED, after, 0);
       }
     }
+  }
+
+  // x is the better estimate of one object than y: visible first, then the higher score.
+  bool Better(const Instance& x, const Instance& y) const {
+    if (Visible(x) != Visible(y)) return Visible(x);
+    return x.score > y.score;
   }
 
   void MergeDuplicates(std::vector<Existing>* existing, float d) {
@@ -318,18 +331,14 @@ class Reconciler {
       for (size_t b = a + 1; b < existing->size(); ++b) {
         Instance& younger = (*existing)[b].instance;
         if (younger.id == 0 || (PositionOf(younger) - PositionOf(older)).norm() > d) continue;
-        if (younger.score > older.score) {  // the better estimate wins, the older id stays
-          const uint64_t id = older.id, first = older.first_frame;
-          const int64_t first_time = older.first_time_us;
-          const bool was_visible = Visible(older);
+        if (Better(younger, older)) {  // the better estimate wins, the older id stays
+          const Instance before = older;
           older = younger;
-          older.id = id;
-          older.first_frame = first;
-          older.first_time_us = first_time;
+          older.id = before.id;
+          older.first_frame = before.first_frame;
+          older.first_time_us = before.first_time_us;
           Put(older);
-          if (Visible(older)) {
-            Emit(was_visible ? v1::InstanceEvent::UPDATED : v1::InstanceEvent::CREATED, older, 0);
-          }
+          Transition(before, older);
         }
         Remove(younger, v1::InstanceEvent::MERGED, older.id);
         younger.id = 0;

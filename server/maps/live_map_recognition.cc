@@ -279,15 +279,19 @@ void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
   const ReconcileParams params{.map_id = id_,
                                .min_instance_score = options_.config.recognition.min_instance_score,
                                .min_instance_fit = options_.config.recognition.min_instance_fit};
-  for (const auto& [obj_id, r] : regions) {
-    const int o = model_->FindObject(static_cast<int>(obj_id));
-    if (o < 0) continue;
-    ReconcileInstances(
-        *model_, params,
-        {.object_index = o,
-         .region = {(r.lo + r.hi) / 2, 0.5f * (r.hi - r.lo).norm() + model_->object(o).radius},
-         .frame = 0},
-        &state);
+  // Twice: the second pass sees every object's instances in their new places (one object's
+  // instance can rule out another's where they would overlap).
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const auto& [obj_id, r] : regions) {
+      const int o = model_->FindObject(static_cast<int>(obj_id));
+      if (o < 0) continue;
+      ReconcileInstances(
+          *model_, params,
+          {.object_index = o,
+           .region = {(r.lo + r.hi) / 2, 0.5f * (r.hi - r.lo).norm() + model_->object(o).radius},
+           .frame = 0},
+          &state);
+    }
   }
   recognition_changes_.fetch_add(1, std::memory_order_acq_rel);
 }
