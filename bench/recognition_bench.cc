@@ -44,6 +44,8 @@ ABSL_FLAG(bool, mapping_only, true, "also stream each scene with recognition off
 ABSL_FLAG(double, sphere_distance, 0, "active sphere distance (0 = scene rule)");
 ABSL_FLAG(double, sphere_radius, 0.6, "active sphere radius");
 ABSL_FLAG(double, min_fit, -1, "the map's min_instance_fit (-1: the server's default)");
+ABSL_FLAG(double, labels_resolution, 0, "labels voxel edge, metres (0: the server's default)");
+ABSL_FLAG(int, triples, 0, "RANSAC triples per object and frame (0: the server's default)");
 
 namespace skimap::bench {
 namespace {
@@ -102,6 +104,10 @@ Run Stream(std::shared_ptr<const objects::ObjectDatabase> db,
     r->set_sphere_distance(absl::GetFlag(FLAGS_sphere_distance));
     r->set_sphere_radius(absl::GetFlag(FLAGS_sphere_radius));
     if (absl::GetFlag(FLAGS_min_fit) >= 0) r->set_min_instance_fit(absl::GetFlag(FLAGS_min_fit));
+    if (absl::GetFlag(FLAGS_labels_resolution) > 0) {
+      r->set_labels_resolution(absl::GetFlag(FLAGS_labels_resolution));
+    }
+    if (absl::GetFlag(FLAGS_triples) > 0) r->set_triples(absl::GetFlag(FLAGS_triples));
   }
   if (auto m = service.CreateMap(create); !m.ok()) Die(m.status().ToString());
   // Frames are read and encoded up front: only the server's work is timed.
@@ -192,6 +198,24 @@ Score Evaluate(const std::vector<Truth>& truth, const std::vector<v1::Instance>&
       ++s.tp;
       (*per_object)[t.obj_id].first++;
     }
+  }
+  for (size_t i = 0; i < instances.size(); ++i) {
+    if (used[i]) continue;
+    const v1::Instance& in = instances[i];
+    const Eigen::Vector3d p(in.pose().translation().x(), in.pose().translation().y(),
+                            in.pose().translation().z());
+    double nearest = 1e9;
+    int near_obj = 0;
+    for (const Truth& t : truth) {
+      const double d = (p - t.pose.translation()).norm();
+      if (d < nearest) {
+        nearest = d;
+        near_obj = t.obj_id;
+      }
+    }
+    std::fprintf(stderr, "    FP obj %d instance %llu: score %.0f fit %.2f support %llu/%llu, nearest GT obj %d at %.0f mm\n",
+                 in.obj_id(), (unsigned long long)in.id(), in.score(), in.fit(),
+                 (unsigned long long)in.hypotheses(), (unsigned long long)in.frames(), near_obj, nearest * 1000);
   }
   return s;
 }

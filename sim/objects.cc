@@ -190,7 +190,10 @@ std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& texture
     ObjectModel o;
     o.obj_id = i + 1;
     o.name = kNames[i];
-    o.mesh = Design(i, textures[rank[i % n]], Darker(textures[rank[(i + 5) % n]], 0.8));
+    // Secondary parts (handles, caps, lids) take pictures after every object's own, so that
+    // no object carries another's print.
+    o.mesh = Design(i, textures[rank[i % n]],
+                    Darker(textures[rank[(kNumObjectDesigns + i) % n]], 0.8));
     CentreMesh(o.mesh);
     out.push_back(std::move(o));
   }
@@ -200,8 +203,9 @@ std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& texture
 std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int count) {
   std::vector<Mesh> out;
   const size_t n = textures.size();
+  const std::vector<size_t> rank = RankByDetail(textures);
   for (int i = 0; i < count; ++i) {
-    const Texture& t = textures[n - 1 - (i % n)];
+    const Texture& t = textures[rank[n - 1 - (i % n)]];
     Mesh m;
     switch (i % 4) {
       case 0:  // vase

@@ -45,7 +45,8 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures);
 std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count);
 
 // Makes `count` distractor meshes (origin at bbox centre), textured from the end of the
-// texture list so they look unlike the database objects. REQUIRES: textures non-empty.
+// RankByDetail order, so they look unlike the database objects (which take its start).
+// REQUIRES: textures non-empty.
 std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int count);
 
 // Moves the mesh so the centre of its bounding box is at the origin.
