@@ -104,7 +104,8 @@ absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int ma
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     std::string ext = e.path().extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-    if (e.is_regular_file() && (ext == ".jpg" || ext == ".jpeg" || ext == ".png")) {
+    if (e.is_regular_file() &&
+        (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".webp")) {
       files.push_back(e.path().string());
     }
   }
@@ -135,6 +136,7 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
   std::vector<std::pair<double, size_t>> score;
   std::vector<cv::Mat> thumbs;
   std::vector<double> colourful;
+  std::vector<int> keypoint_count;
   for (size_t i = 0; i < textures.size(); ++i) {
     cv::Mat gray;
     cv::cvtColor(*textures[i], gray, cv::COLOR_BGR2GRAY);
@@ -150,6 +152,7 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
       distinct += nearest > 50;
     }
     score.push_back({static_cast<double>(distinct) / gray.total(), i});
+    keypoint_count.push_back(static_cast<int>(keypoints.size()));
     // Colourfulness (Hasler and Suesstrunk 2003): printed packaging is colourful.
     cv::Mat f;
     textures[i]->convertTo(f, CV_32F);
@@ -168,15 +171,16 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
   }
   std::stable_sort(score.begin(), score.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
-  // Near twins (stereo pairs, frames of one sequence) and dull pictures (colourfulness under
-  // 40: a green circuit board, grey facades) go to the end: objects must differ and look
-  // like packaging.
+  // Near twins (stereo pairs, frames of one sequence), dull pictures (colourfulness under
+  // 40: a green circuit board, grey facades) and blurred or plain ones (ORB finds fewer
+  // than 300 of its 500 keypoints) go to the end: objects must differ and look like
+  // packaging.
   std::vector<size_t> out, twins;
   for (const auto& [s, i] : score) {
     const bool twin = std::any_of(out.begin(), out.end(), [&](size_t k) {
       return thumbs[i].dot(thumbs[k]) / thumbs[i].total() > 0.6;
     });
-    (twin || colourful[i] < 40 ? twins : out).push_back(i);
+    (twin || colourful[i] < 40 || keypoint_count[i] < 300 ? twins : out).push_back(i);
   }
   out.insert(out.end(), twins.begin(), twins.end());
   return out;
@@ -192,8 +196,8 @@ std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& texture
     o.name = kNames[i];
     // Secondary parts (handles, caps, lids) take pictures after every object's own, so that
     // no object carries another's print.
-    o.mesh = Design(i, textures[rank[i % n]],
-                    Darker(textures[rank[(kNumObjectDesigns + i) % n]], 0.8));
+    o.mesh =
+        Design(i, textures[rank[i % n]], Darker(textures[rank[(kNumObjectDesigns + i) % n]], 0.8));
     CentreMesh(o.mesh);
     out.push_back(std::move(o));
   }

@@ -17,7 +17,7 @@ namespace skimap::sim {
 // Debian's opencv-doc photographs, the default texture source.
 inline constexpr char kDefaultTextureDir[] = "/usr/share/doc/opencv-doc/examples/data";
 
-// Loads every .jpg/.jpeg/.png in `dir` (sorted by name; not recursive) that is a colour-
+// Loads every .jpg/.jpeg/.png/.webp in `dir` (sorted by name; not recursive) that is a colour-
 // able image of at least 64x64 px, scaled so the longer side is at most max_side px.
 // kNotFound if the folder is missing or holds no usable image.
 absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side = 256);
@@ -34,8 +34,8 @@ struct ObjectModel {
 inline constexpr int kNumObjectDesigns = 12;
 
 // Texture indices by detail, most detailed first (distinct ORB keypoints per pixel); near
-// twins of a picture ranked before them (thumbnails correlating above 0.6) and dull
-// pictures (colourfulness under 40) moved last.
+// twins of a picture ranked before them (thumbnails correlating above 0.6), dull pictures
+// (colourfulness under 40) and blurred or plain ones (under 300 ORB keypoints) moved last.
 std::vector<size_t> RankByDetail(const std::vector<Texture>& textures);
 
 // Makes database objects 1..count (count <= kNumObjectDesigns). Like printed packaging,

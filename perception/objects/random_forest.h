@@ -81,6 +81,11 @@ class RandomForest {
   // The top_n classes by confidence for one feature vector of dims() floats, highest
   // first (ties: smaller class). `out` is cleared first; scratch reuse avoids allocation.
   void Predict(const float* features, int top_n, std::vector<ClassScore>* out) const;
+  // Predict for n feature vectors (row i at features + i * dims()) at once: out[i] is
+  // Predict(row i). Trees are walked one at a time for every row, so a tree's upper levels
+  // stay in cache (several times faster than n Predict calls on a large forest).
+  void PredictMany(const float* features, size_t n, int top_n,
+                   std::vector<std::vector<ClassScore>>* out) const;
 
   int dims() const { return dims_; }
   uint32_t num_classes() const { return num_classes_; }

@@ -42,6 +42,52 @@ void RandomForest::Predict(const float* x, int top_n, std::vector<ClassScore>* o
   out->resize(keep);
 }
 
+void RandomForest::PredictMany(const float* features, size_t n, int top_n,
+                               std::vector<std::vector<ClassScore>>* out) const {
+  out->resize(n);
+  for (std::vector<ClassScore>& o : *out) o.clear();
+  if (roots_.empty() || top_n <= 0 || n == 0) return;
+  const size_t trees = roots_.size();
+  thread_local std::vector<uint32_t> leaf;  // leaf node of row i in tree t: [i * trees + t]
+  leaf.resize(n * trees);
+  for (size_t t = 0; t < trees; ++t) {
+    const uint32_t root = roots_[t];
+    for (size_t i = 0; i < n; ++i) {
+      const float* x = features + i * static_cast<size_t>(dims_);
+      uint32_t k = root;
+      while (nodes_[k].feature >= 0) {
+        const Node& nd = nodes_[k];
+        k = x[nd.feature] < nd.threshold ? nd.b : nd.a;
+      }
+      leaf[i * trees + t] = k;
+    }
+  }
+  thread_local std::vector<LeafEntry> hits;
+  const float inv_trees = 1.0f / static_cast<float>(trees);
+  auto better = [](const ClassScore& a, const ClassScore& b) {
+    return a.confidence != b.confidence ? a.confidence > b.confidence : a.cls < b.cls;
+  };
+  for (size_t i = 0; i < n; ++i) {
+    hits.clear();
+    for (size_t t = 0; t < trees; ++t) {
+      const Node& nd = nodes_[leaf[i * trees + t]];
+      hits.insert(hits.end(), leaves_.begin() + nd.a, leaves_.begin() + nd.a + nd.b);
+    }
+    std::sort(hits.begin(), hits.end(),
+              [](const LeafEntry& a, const LeafEntry& b) { return a.cls < b.cls; });
+    std::vector<ClassScore>& o = (*out)[i];
+    for (size_t h = 0; h < hits.size();) {
+      float sum = 0;
+      const uint32_t c = hits[h].cls;
+      for (; h < hits.size() && hits[h].cls == c; ++h) sum += hits[h].fraction;
+      o.push_back({c, sum * inv_trees});
+    }
+    const size_t keep = std::min<size_t>(o.size(), static_cast<size_t>(top_n));
+    std::partial_sort(o.begin(), o.begin() + keep, o.end(), better);
+    o.resize(keep);
+  }
+}
+
 size_t RandomForest::MemoryBytes() const {
   return nodes_.size() * sizeof(Node) + leaves_.size() * sizeof(LeafEntry) +
          roots_.size() * sizeof(uint32_t);

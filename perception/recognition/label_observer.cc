@@ -28,6 +28,9 @@ absl::StatusOr<LabelObservations> LabelObserver::Observe(const perception::RgbdF
   out.features = static_cast<int>(features->keypoints.size());
   const perception::PinholeCamera& cam = frame.camera;
   const objects::ObjectDatabase& db = model_.db();
+  // The keypoints with a depth in range, classified in one batch.
+  std::vector<Eigen::Vector3f> points;
+  objects::DescriptorMatrix kept(db.layout());
   for (size_t i = 0; i < features->keypoints.size(); ++i) {
     const cv::Point2f& pt = features->keypoints[i].pt;
     const int u = static_cast<int>(std::lround(pt.x)), v = static_cast<int>(std::lround(pt.y));
@@ -35,16 +38,19 @@ absl::StatusOr<LabelObservations> LabelObserver::Observe(const perception::RgbdF
     const uint16_t raw = frame.depth.pixels[static_cast<size_t>(v) * frame.depth.width + u];
     const double z = raw * frame.depth_scale;
     if (raw == 0 || z < min_depth || z > max_depth) continue;
-    ++out.with_depth;
-    db.Classify(features->descriptors.Row(i), &scratch_, &predictions_);
-    for (const objects::Prediction& p : predictions_) {  // most confident first
+    points.emplace_back(float((u - cam.cx) * z / cam.fx), float((v - cam.cy) * z / cam.fy),
+                        float(z));
+    kept.Append(features->descriptors.Row(i));
+  }
+  out.with_depth = static_cast<int>(points.size());
+  db.ClassifyMany(kept, &predictions_);
+  for (size_t i = 0; i < points.size(); ++i) {
+    for (const objects::Prediction& p : predictions_[i]) {  // most confident first
       if (!p.verified) continue;
       // The most confident verified candidate decides; another object's feature is not
       // given to a wanted one.
       if (model_.object(p.object_index).wanted) {
-        out.labels.push_back({Eigen::Vector3f(float((u - cam.cx) * z / cam.fx),
-                                              float((v - cam.cy) * z / cam.fy), float(z)),
-                              p.cls, p.confidence});
+        out.labels.push_back({points[i], p.cls, p.confidence});
       }
       break;
     }

@@ -60,8 +60,7 @@ class LabelObserver {
  private:
   const RecognitionModel& model_;
   std::unique_ptr<objects::FeatureExtractor> extractor_;
-  std::vector<float> scratch_;
-  std::vector<objects::Prediction> predictions_;
+  std::vector<std::vector<objects::Prediction>> predictions_;  // per kept keypoint
 };
 
 // Adds one MultiLabelVoxel(cls, 1) per observation at pose * point (labels grid keys).

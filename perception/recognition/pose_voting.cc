@@ -121,9 +121,13 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
   absl::flat_hash_map<Cell, std::vector<uint32_t>> grid;
   for (size_t i = 0; i < n; ++i)
     grid[cell_of(matches[i].world)].push_back(static_cast<uint32_t>(i));
-  std::vector<uint32_t> near;
-  auto neighbours = [&](size_t first) {
-    near.clear();
+  // Neighbour lists are made once per first match (weighted draws repeat the heavy ones).
+  std::vector<std::vector<uint32_t>> memo(n);
+  std::vector<bool> known(n, false);
+  auto neighbours = [&](size_t first) -> const std::vector<uint32_t>& {
+    if (known[first]) return memo[first];
+    known[first] = true;
+    std::vector<uint32_t>& near = memo[first];
     const Cell c = cell_of(matches[first].world);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
@@ -138,6 +142,7 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
         }
       }
     }
+    return near;
   };
 
   // Votes: the transforms, and per bin the indices of those that voted for it.
@@ -147,7 +152,7 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
   const float inv_bin = 1.0f / options.bin;
   for (int k = 0; k < options.triples; ++k) {
     const size_t i = draw();
-    neighbours(i);
+    const std::vector<uint32_t>& near = neighbours(i);
     if (near.size() < 2) continue;
     std::uniform_int_distribution<size_t> pick(0, near.size() - 1);
     const size_t j = near[pick(rng)], l = near[pick(rng)];

@@ -156,10 +156,12 @@ absl::Status MapService::CheckRecognition(const RecognitionConfig& config) const
         "options.recognition.enabled: the server has no object classifier yet (train objects "
         "and build it: skimap objects train, skimap objects build)");
   }
-  absl::StatusOr<recognition::RecognitionModel> model =
-      recognition::RecognitionModel::Create(std::move(db), config.obj_ids);
-  if (!model.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat("options.", model.status().message()));
+  for (size_t i = 0; i < config.obj_ids.size(); ++i) {
+    if (db->FindObject(config.obj_ids[i]) < 0) {
+      return absl::InvalidArgumentError(absl::StrCat("options.recognition.obj_ids[", i,
+                                                     "]: object ", config.obj_ids[i],
+                                                     " is not in the classifier"));
+    }
   }
   return absl::OkStatus();
 }

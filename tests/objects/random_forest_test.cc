@@ -58,6 +58,29 @@ TEST(RandomForestTest, ClassifiesManyClassesAboveNinetyPercent) {
   EXPECT_GE(correct, 0.98 * test.size());
 }
 
+TEST(RandomForestTest, PredictManyGivesEveryRowsPredict) {
+  std::vector<std::vector<float>> protos;
+  const TrainingSet train = BitPrototypes(50, 10, 64, 0.1, 3, &protos);
+  const TrainingSet test = BitPrototypes(50, 3, 64, 0.1, 4, &protos);
+  absl::StatusOr<RandomForest> f =
+      RandomForest::Train(train, 50, {.trees = 8, .max_depth = 16, .seed = 2});
+  ASSERT_TRUE(f.ok()) << f.status();
+  std::vector<std::vector<ClassScore>> many;
+  f->PredictMany(test.features.data(), test.size(), 3, &many);
+  ASSERT_EQ(many.size(), test.size());
+  std::vector<ClassScore> one;
+  for (size_t i = 0; i < test.size(); ++i) {
+    f->Predict(&test.features[i * test.dims], 3, &one);
+    ASSERT_EQ(many[i].size(), one.size()) << "row " << i;
+    for (size_t k = 0; k < one.size(); ++k) {
+      EXPECT_EQ(many[i][k].cls, one[k].cls) << "row " << i;
+      EXPECT_EQ(many[i][k].confidence, one[k].confidence) << "row " << i;
+    }
+  }
+  f->PredictMany(test.features.data(), 0, 3, &many);
+  EXPECT_TRUE(many.empty());
+}
+
 TEST(RandomForestTest, SameSeedSameForestAndSerializationRoundTrips) {
   std::vector<std::vector<float>> protos;
   const TrainingSet train = BitPrototypes(50, 10, 64, 0.1, 3, &protos);
