@@ -6,6 +6,7 @@
 
 #include "Eigen/Geometry"
 #include "Eigen/LU"
+#include "Eigen/SVD"
 #include "absl/container/flat_hash_map.h"
 
 namespace skimap::recognition {
@@ -70,6 +71,50 @@ Eigen::Isometry3f FitRigid(std::span<const LabelMatch> matches) {
   return FromMatrix(Eigen::umeyama(src, dst, /*with_scaling=*/false));
 }
 
+Eigen::Isometry3f FitRigidWeighted(std::span<const LabelMatch> matches,
+                                   std::span<const float> weights) {
+  Eigen::Vector3f cm = Eigen::Vector3f::Zero(), cw = Eigen::Vector3f::Zero();
+  float total = 0;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    cm += weights[i] * matches[i].model;
+    cw += weights[i] * matches[i].world;
+    total += weights[i];
+  }
+  Eigen::Isometry3f t = Eigen::Isometry3f::Identity();
+  if (!(total > 0)) return t;
+  cm /= total;
+  cw /= total;
+  Eigen::Matrix3f cov = Eigen::Matrix3f::Zero();
+  for (size_t i = 0; i < matches.size(); ++i) {
+    cov += weights[i] * (matches[i].world - cw) * (matches[i].model - cm).transpose();
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3f> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3f d = Eigen::Matrix3f::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) d(2, 2) = -1;
+  t.linear() = svd.matrixU() * d * svd.matrixV().transpose();
+  t.translation() = cw - t.linear() * cm;
+  return t;
+}
+
+namespace {
+
+// Summed weight of the matches, each scaled by a Gaussian of its residual (sigma); the
+// residuals past 3 sigma count nothing. Tighter fits score more, unlike a plain count.
+float SoftScore(std::span<const LabelMatch> matches, const Eigen::Isometry3f& pose, float sigma,
+                std::vector<float>* weights) {
+  const float inv = 1.0f / (2 * sigma * sigma), cut = 9 * sigma * sigma;
+  float total = 0;
+  weights->resize(matches.size());
+  for (size_t i = 0; i < matches.size(); ++i) {
+    const float d2 = (pose * matches[i].model - matches[i].world).squaredNorm();
+    (*weights)[i] = d2 < cut ? matches[i].weight * std::exp(-d2 * inv) : 0;
+    total += (*weights)[i];
+  }
+  return total;
+}
+
+}  // namespace
+
 PoseEstimate RefinePose(std::span<const LabelMatch> matches, const Eigen::Isometry3f& pose,
                         float distance) {
   PoseEstimate best;
@@ -88,6 +133,24 @@ PoseEstimate RefinePose(std::span<const LabelMatch> matches, const Eigen::Isomet
     Score(matches, refit, distance, &next.score, &next.inliers);
     if (!(next.score >= best.score)) break;  // also rejects a NaN fit
     best = next;
+  }
+  // Then iteratively reweighted least squares with Gaussian weights (sigma = distance / 2):
+  // among poses that keep about the same inliers, the one they fit tightest. On a small
+  // object the inlier count alone cannot tell a pose from one turned by 20 degrees.
+  if (best.inliers >= 3) {
+    const float sigma = distance / 2;
+    std::vector<float> weights;
+    float soft = SoftScore(matches, best.pose, sigma, &weights);
+    for (int round = 0; round < 4; ++round) {
+      const Eigen::Isometry3f refit = FitRigidWeighted(matches, weights);
+      std::vector<float> next_weights;
+      const float next_soft = SoftScore(matches, refit, sigma, &next_weights);
+      if (!(next_soft > soft)) break;
+      soft = next_soft;
+      weights = std::move(next_weights);
+      best.pose = refit;
+    }
+    Score(matches, best.pose, distance, &best.score, &best.inliers);
   }
   return best;
 }

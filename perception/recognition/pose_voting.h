@@ -63,7 +63,14 @@ struct PoseEstimate {
 // world[i] (Umeyama). REQUIRES: n >= 3 points, not all collinear.
 Eigen::Isometry3f FitRigid(std::span<const LabelMatch> matches);
 
-// The inliers of `pose` among `matches` (within `distance`), refit on them, twice.
+// Least-squares rigid transform with a weight per match (weighted Kabsch); identity when
+// the weights sum to zero.
+Eigen::Isometry3f FitRigidWeighted(std::span<const LabelMatch> matches,
+                                   std::span<const float> weights);
+
+// The inliers of `pose` among `matches` (within `distance`), refit on them, twice; then
+// iteratively reweighted refits (Gaussian weights, sigma = distance / 2) while they fit
+// the matches tighter.
 PoseEstimate RefinePose(std::span<const LabelMatch> matches, const Eigen::Isometry3f& pose,
                         float distance);
 

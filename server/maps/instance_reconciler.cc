@@ -17,8 +17,6 @@ using recognition::InstanceEstimate;
 using recognition::LabelMatch;
 
 constexpr float kMinEstimateScore = 3;  // inlier label weight of an estimate worth keeping
-constexpr float kMovedDistance = 0.001f;
-constexpr float kMovedAngle = 0.2f * float(M_PI) / 180;
 
 Eigen::Vector3f PositionOf(const Instance& i) { return {i.t[0], i.t[1], i.t[2]}; }
 Eigen::Quaternionf RotationOf(const Instance& i) {
@@ -299,8 +297,8 @@ class Reconciler {
   }
 
   // Emits what `before` -> `after` means to a client that sees visible instances only:
-  // CREATED, REMOVED, or UPDATED (moved 1 mm / 0.2 degrees, or new support). A `before`
-  // without support is a new instance.
+  // CREATED, REMOVED, or UPDATED (any field changed: replaying the events gives exactly
+  // what ListInstances answers). A `before` without support is a new instance.
   void Transition(const Instance& before, const Instance& after) {
     const bool was_visible = before.support > 0 && Visible(before);
     const bool visible = Visible(after);
@@ -308,13 +306,8 @@ class Reconciler {
       Emit(v1::InstanceEvent::CREATED, after, 0);
     } else if (!visible && was_visible) {
       Emit(v1::InstanceEvent::REMOVED, after, 0);
-    } else if (visible) {
-      const bool moved =
-          (PositionOf(after) - PositionOf(before)).norm() >= kMovedDistance ||
-          recognition::RotationAngle(RotationOf(after), RotationOf(before)) >= kMovedAngle;
-      if (moved || after.support != before.support || after.frames != before.frames) {
-        Emit(v1::InstanceEvent::UPDATED, after, 0);
-      }
+    } else if (visible && !(after == before)) {
+      Emit(v1::InstanceEvent::UPDATED, after, 0);
     }
   }
 

@@ -17,8 +17,9 @@
 //      older, which keeps its id.
 //
 // Events are about visible instances (score >= min_instance_score): an instance becoming
-// visible is CREATED, one falling below or going is REMOVED, a visible one that moved by
-// 1 mm / 0.2 degrees or more or whose support changed is UPDATED.
+// visible is CREATED, one falling below or going is REMOVED, a visible one that changed in
+// any way (pose, score, support, sightings) is UPDATED: replaying the events gives exactly
+// the listed instances.
 //
 // Thread safety: mutates `state`; REQUIRES the map's exclusive snapshot lock (the worker).
 #ifndef SERVER_MAPS_INSTANCE_RECONCILER_H_
