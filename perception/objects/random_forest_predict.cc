@@ -42,26 +42,35 @@ void RandomForest::Predict(const float* x, int top_n, std::vector<ClassScore>* o
   out->resize(keep);
 }
 
-void RandomForest::PredictMany(const float* features, size_t n, int top_n,
+namespace {
+
+// The leaf of every row in every tree, tree by tree (a tree's upper levels stay in cache):
+// leaf[i * trees + t]. `feature(i, f)` reads feature f of row i.
+template <class Feature>
+void WalkTrees(const std::vector<uint32_t>& roots, const std::vector<RandomForest::Node>& nodes,
+               size_t n, Feature feature, std::vector<uint32_t>* leaf) {
+  const size_t trees = roots.size();
+  leaf->resize(n * trees);
+  for (size_t t = 0; t < trees; ++t) {
+    for (size_t i = 0; i < n; ++i) {
+      uint32_t k = roots[t];
+      while (nodes[k].feature >= 0) {
+        const RandomForest::Node& nd = nodes[k];
+        k = feature(i, nd.feature) < nd.threshold ? nd.b : nd.a;
+      }
+      (*leaf)[i * trees + t] = k;
+    }
+  }
+}
+
+}  // namespace
+
+void RandomForest::MergeLeaves(const std::vector<uint32_t>& leaf, size_t n, int top_n,
                                std::vector<std::vector<ClassScore>>* out) const {
   out->resize(n);
   for (std::vector<ClassScore>& o : *out) o.clear();
-  if (roots_.empty() || top_n <= 0 || n == 0) return;
+  if (roots_.empty() || top_n <= 0) return;
   const size_t trees = roots_.size();
-  thread_local std::vector<uint32_t> leaf;  // leaf node of row i in tree t: [i * trees + t]
-  leaf.resize(n * trees);
-  for (size_t t = 0; t < trees; ++t) {
-    const uint32_t root = roots_[t];
-    for (size_t i = 0; i < n; ++i) {
-      const float* x = features + i * static_cast<size_t>(dims_);
-      uint32_t k = root;
-      while (nodes_[k].feature >= 0) {
-        const Node& nd = nodes_[k];
-        k = x[nd.feature] < nd.threshold ? nd.b : nd.a;
-      }
-      leaf[i * trees + t] = k;
-    }
-  }
   thread_local std::vector<LeafEntry> hits;
   const float inv_trees = 1.0f / static_cast<float>(trees);
   auto better = [](const ClassScore& a, const ClassScore& b) {
@@ -86,6 +95,27 @@ void RandomForest::PredictMany(const float* features, size_t n, int top_n,
     std::partial_sort(o.begin(), o.begin() + keep, o.end(), better);
     o.resize(keep);
   }
+}
+
+void RandomForest::PredictMany(const float* features, size_t n, int top_n,
+                               std::vector<std::vector<ClassScore>>* out) const {
+  thread_local std::vector<uint32_t> leaf;
+  const size_t dims = static_cast<size_t>(dims_);
+  WalkTrees(
+      roots_, nodes_, n, [&](size_t i, int f) { return features[i * dims + f]; }, &leaf);
+  MergeLeaves(leaf, n, top_n, out);
+}
+
+void RandomForest::PredictManyBits(const uint8_t* bits, size_t row_bytes, size_t n, int top_n,
+                                   std::vector<std::vector<ClassScore>>* out) const {
+  thread_local std::vector<uint32_t> leaf;
+  WalkTrees(
+      roots_, nodes_, n,
+      [&](size_t i, int f) {
+        return static_cast<float>((bits[i * row_bytes + (f >> 3)] >> (f & 7)) & 1);
+      },
+      &leaf);
+  MergeLeaves(leaf, n, top_n, out);
 }
 
 size_t RandomForest::MemoryBytes() const {

@@ -184,45 +184,47 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
   absl::flat_hash_map<Cell, std::vector<uint32_t>> grid;
   for (size_t i = 0; i < n; ++i)
     grid[cell_of(matches[i].world)].push_back(static_cast<uint32_t>(i));
-  // Neighbour lists are made once per first match (weighted draws repeat the heavy ones).
-  std::vector<std::vector<uint32_t>> memo(n);
-  std::vector<bool> known(n, false);
-  auto neighbours = [&](size_t first) -> const std::vector<uint32_t>& {
-    if (known[first]) return memo[first];
-    known[first] = true;
-    std::vector<uint32_t>& near = memo[first];
-    const Cell c = cell_of(matches[first].world);
+  // The matches of each occupied cell's 3x3x3 block, made once per cell (cells are far
+  // fewer than matches); the second and third match are drawn from the first's block and
+  // kept when within the diameter (rejection sampling: uniform over the true neighbours).
+  absl::flat_hash_map<Cell, std::vector<uint32_t>> blocks;
+  auto block_of = [&](const Cell& c) -> const std::vector<uint32_t>& {
+    auto [it, fresh] = blocks.try_emplace(c);
+    if (!fresh) return it->second;
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          auto it = grid.find(Cell{c.x + dx, c.y + dy, c.z + dz});
-          if (it == grid.end()) continue;
-          for (uint32_t j : it->second) {
-            if (j != first && (matches[j].world - matches[first].world).norm() <= diameter) {
-              near.push_back(j);
-            }
-          }
+          auto g = grid.find(Cell{c.x + dx, c.y + dy, c.z + dz});
+          if (g != grid.end())
+            it->second.insert(it->second.end(), g->second.begin(), g->second.end());
         }
       }
     }
-    return near;
+    return it->second;
   };
+  const float d2max = diameter * diameter;
 
   // Votes: the transforms, and per bin the indices of those that voted for it.
   std::vector<Eigen::Isometry3f> transforms;
   absl::flat_hash_map<Cell, std::vector<int>> bins;
   const float reach = sphere.radius + shape.radius;
   const float inv_bin = 1.0f / options.bin;
-  for (int k = 0; k < options.triples; ++k) {
+  // `triples` triples within the diameter, with at most 4 draws each.
+  for (int k = 0, attempts = 0; k < options.triples && attempts < 4 * options.triples; ++attempts) {
     const size_t i = draw();
-    const std::vector<uint32_t>& near = neighbours(i);
-    if (near.size() < 2) continue;
-    std::uniform_int_distribution<size_t> pick(0, near.size() - 1);
-    const size_t j = near[pick(rng)], l = near[pick(rng)];
-    if (j == l) continue;
+    const std::vector<uint32_t>& block = block_of(cell_of(matches[i].world));
+    if (block.size() < 3) continue;
+    std::uniform_int_distribution<size_t> pick(0, block.size() - 1);
+    const size_t j = block[pick(rng)], l = block[pick(rng)];
+    if (j == l || j == i || l == i || (matches[j].world - matches[i].world).squaredNorm() > d2max ||
+        (matches[l].world - matches[i].world).squaredNorm() > d2max) {
+      continue;
+    }
+    ++k;
     if (!Consistent(matches[i], matches[j], matches[l], options)) continue;
     const LabelMatch triple[3] = {matches[i], matches[j], matches[l]};
-    const Eigen::Isometry3f t = FitRigid(triple);
+    constexpr float kOnes[3] = {1, 1, 1};
+    const Eigen::Isometry3f t = FitRigidWeighted(triple, kOnes);  // no heap, unlike umeyama
     const Eigen::Vector3f base = t * shape.base - sphere.centre;
     if (!base.allFinite() || base.norm() > reach) continue;
     const Cell cell{static_cast<int32_t>(std::floor(base.x() * inv_bin)),
@@ -260,21 +262,27 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
     });
     if (adjacent) continue;
     taken.push_back(cell);
-    // The best transform among those of the peak's neighbourhood, refit on its inliers.
-    PoseEstimate best;
+    // The best transform among those of the peak's neighbourhood (at most kCandidates of
+    // them, evenly taken: a strong peak holds hundreds of near-equal ones), refit on its
+    // inliers.
+    std::vector<int> candidates;
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
           auto it = bins.find(Cell{cell.x + dx, cell.y + dy, cell.z + dz});
-          if (it == bins.end()) continue;
-          for (int index : it->second) {
-            PoseEstimate e;
-            e.pose = transforms[index];
-            Score(matches, e.pose, options.inlier_distance, &e.score, &e.inliers);
-            if (e.score > best.score) best = e;
-          }
+          if (it != bins.end())
+            candidates.insert(candidates.end(), it->second.begin(), it->second.end());
         }
       }
+    }
+    constexpr size_t kCandidates = 24;
+    const size_t step = std::max<size_t>(1, candidates.size() / kCandidates);
+    PoseEstimate best;
+    for (size_t c = 0; c < candidates.size(); c += step) {
+      PoseEstimate e;
+      e.pose = transforms[candidates[c]];
+      Score(matches, e.pose, options.inlier_distance, &e.score, &e.inliers);
+      if (e.score > best.score) best = e;
     }
     PoseEstimate refined = RefinePose(matches, best.pose, options.inlier_distance);
     refined.votes = votes;

@@ -13,9 +13,10 @@
 // grid (edge `bin`, over the sphere) holding the transformed base point. The base, not the
 // centroid, makes a false triple whose centroid lands near the true one vote elsewhere (Fig. 7).
 // Bins with at least `min_votes` votes in their 3x3x3 neighbourhood are peaks (the best
-// `max_peaks`, no two adjacent); a peak's transforms (its bin and the 26 around it) are scored by
-// their inlier matches (p within `inlier_distance` of T·v, weights summed), the best is refit on
-// its inliers (RefinePose), and kept when its score reaches `min_score`.
+// `max_peaks`, no two adjacent); a peak's transforms (its bin and the 26 around it; at most 24,
+// evenly taken) are scored by their inlier matches (p within `inlier_distance` of T·v, weights
+// summed), the best is refit on its inliers (RefinePose), and kept when its score reaches
+// `min_score`.
 //
 // Thread safety: pure functions (the caller's rng aside).
 #ifndef PERCEPTION_RECOGNITION_POSE_VOTING_H_

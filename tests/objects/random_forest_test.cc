@@ -77,6 +77,20 @@ TEST(RandomForestTest, PredictManyGivesEveryRowsPredict) {
       EXPECT_EQ(many[i][k].confidence, one[k].confidence) << "row " << i;
     }
   }
+  // The same on packed bits (the features are 0/1).
+  std::vector<uint8_t> packed(test.size() * 8, 0);
+  for (size_t i = 0; i < test.size(); ++i) {
+    for (int d = 0; d < 64; ++d) {
+      if (test.features[i * 64 + d] > 0.5f) packed[i * 8 + d / 8] |= uint8_t(1 << (d % 8));
+    }
+  }
+  std::vector<std::vector<ClassScore>> bits;
+  f->PredictManyBits(packed.data(), 8, test.size(), 3, &bits);
+  ASSERT_EQ(bits.size(), many.size());
+  for (size_t i = 0; i < many.size(); ++i) {
+    ASSERT_EQ(bits[i].size(), many[i].size());
+    for (size_t k = 0; k < many[i].size(); ++k) EXPECT_EQ(bits[i][k].cls, many[i][k].cls);
+  }
   f->PredictMany(test.features.data(), 0, 3, &many);
   EXPECT_TRUE(many.empty());
 }
