@@ -40,6 +40,7 @@ ABSL_FLAG(double, resolution, 0.02, "map resolution, metres");
 ABSL_FLAG(int, max_frames, 0, "frames per scene at most (0: all)");
 ABSL_FLAG(int, classes, 100, "classes per object (k)");
 ABSL_FLAG(double, db_resolution, 0.01, "descriptor voxel edge of the object database, metres");
+ABSL_FLAG(int, max_features, 1000, "features per image of the object database");
 ABSL_FLAG(bool, mapping_only, true,
           "also stream each scene with recognition off, and with policy NEWEST (mapping "
           "throughput with recognition on)");
@@ -72,6 +73,7 @@ std::shared_ptr<const objects::ObjectDatabase> Database(const std::string& root)
   params.features.detector = absl::GetFlag(FLAGS_detector);
   params.classes_per_object = absl::GetFlag(FLAGS_classes);
   params.resolution = absl::GetFlag(FLAGS_db_resolution);
+  params.features.max_features = absl::GetFlag(FLAGS_max_features);
   std::fprintf(stderr, "training the object database (%s) ...\n", params.features.detector.c_str());
   const Clock::time_point t0 = Clock::now();
   absl::StatusOr<objects::ObjectDatabase> db = objects::TrainObjectDatabase(root, params);
