@@ -4,6 +4,7 @@
 //           [--worker_threads=2] [--max_message_mb=80] [--max_in_flight=8]
 //           [--queue_capacity=64] [--dataset_root=DIR] [--lazy_load]
 //           [--memory_budget_mb=0] [--snapshot_interval_s=10] [--journal_retain_mb=1024]
+//           [--store=postgresql://user@host:port/db]
 //
 // Serves skimap.v1.MapService, skimap.v1.ObjectService (its object database is
 // DATA_DIR/objects.sqlite, loaded at start), grpc.health.v1.Health and server reflection.
@@ -21,6 +22,7 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "server/grpc/grpc_server.h"
+#include "storage/postgres_map_store.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
           "gRPC listen address (host:port); beyond loopback only with --insecure");
@@ -32,6 +34,9 @@ ABSL_FLAG(std::string, dataset_root, "",
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
           "directory for server data (created if missing): maps.sqlite holds every map (frame "
           "journal and snapshots, reloaded at start), objects.sqlite the object database");
+ABSL_FLAG(std::string, store, "",
+          "where maps persist: empty for DATA_DIR/maps.sqlite (SQLite), or a PostgreSQL "
+          "connection URI (postgresql://user@host:port/db) or libpq connection string");
 ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
@@ -90,6 +95,18 @@ int main(int argc, char** argv) {
   options.grpc.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
   options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
   options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();
+  std::unique_ptr<skimap::storage::PostgresMapStore> postgres;  // outlives the server
+  if (const std::string url = absl::GetFlag(FLAGS_store); !url.empty()) {
+    absl::StatusOr<std::unique_ptr<skimap::storage::PostgresMapStore>> store =
+        skimap::storage::PostgresMapStore::Open(url, {});
+    if (!store.ok()) {
+      // libpq's messages name host and port, never the password.
+      std::fprintf(stderr, "skimapd: --store: %s\n", store.status().ToString().c_str());
+      return 1;
+    }
+    postgres = *std::move(store);
+    options.map_store = postgres.get();
+  }
   options.objects.threads = std::max(1, absl::GetFlag(FLAGS_worker_threads));
   absl::StatusOr<std::unique_ptr<skimap::server::GrpcServer>> server =
       skimap::server::GrpcServer::Start(options);
