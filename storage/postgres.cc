@@ -92,7 +92,8 @@ std::string PgResult::Bytes(int row, int col) const {
   return std::string(PQgetvalue(r_, row, col), PQgetlength(r_, row, col));
 }
 
-absl::StatusOr<std::unique_ptr<PgConnection>> PgConnection::Connect(const std::string& dsn) {
+absl::StatusOr<std::unique_ptr<PgConnection>> PgConnection::Connect(const std::string& dsn,
+                                                                    const std::string& setup) {
   pg_conn* c = PQconnectdb(dsn.c_str());
   if (c == nullptr) return absl::ResourceExhaustedError("postgres: out of memory");
   if (PQstatus(c) != CONNECTION_OK) {
@@ -101,13 +102,16 @@ absl::StatusOr<std::unique_ptr<PgConnection>> PgConnection::Connect(const std::s
     PQfinish(c);
     return s;
   }
-  auto conn = std::unique_ptr<PgConnection>(new PgConnection(c));
-  // Durable commits whatever the server's default: an acknowledged frame is on disk.
-  if (absl::Status s =
-          conn->ExecScript("SET synchronous_commit = on; SET client_min_messages = warning");
-      !s.ok())
-    return s;
+  auto conn = std::unique_ptr<PgConnection>(new PgConnection(c, setup));
+  if (absl::Status s = conn->Setup(); !s.ok()) return s;
   return conn;
+}
+
+absl::Status PgConnection::Setup() {
+  // Durable commits whatever the server's default: an acknowledged frame is on disk.
+  absl::Status s = ExecScript("SET synchronous_commit = on; SET client_min_messages = warning");
+  if (!s.ok() || setup_.empty()) return s;
+  return ExecScript(setup_);
 }
 
 PgConnection::~PgConnection() { PQfinish(c_); }
@@ -119,7 +123,7 @@ absl::Status PgConnection::Reset() {
   if (!healthy()) {
     return absl::UnavailableError(absl::StrCat("postgres: reconnect failed: ", PQerrorMessage(c_)));
   }
-  return ExecScript("SET synchronous_commit = on; SET client_min_messages = warning");
+  return Setup();
 }
 
 absl::Status PgConnection::Check(pg_result* r, std::string_view sql) const {
@@ -152,10 +156,11 @@ absl::Status PgConnection::ExecScript(std::string_view sql) {
   return Check(r.r_, sql);
 }
 
-absl::StatusOr<std::unique_ptr<PgPool>> PgPool::Open(const std::string& dsn, int size) {
+absl::StatusOr<std::unique_ptr<PgPool>> PgPool::Open(const std::string& dsn, int size,
+                                                     const std::string& setup) {
   std::unique_ptr<PgPool> pool(new PgPool());
   for (int i = 0; i < std::max(1, size); ++i) {
-    absl::StatusOr<std::unique_ptr<PgConnection>> c = PgConnection::Connect(dsn);
+    absl::StatusOr<std::unique_ptr<PgConnection>> c = PgConnection::Connect(dsn, setup);
     if (!c.ok()) return c.status();
     pool->free_.push_back(*std::move(c));
   }

@@ -76,9 +76,12 @@ class PgResult {
 
 class PgConnection {
  public:
-  // Connects to `dsn` (a libpq connection string or postgres:// URI). Unavailable if the
-  // server cannot be reached, with libpq's message (which never includes the password).
-  static absl::StatusOr<std::unique_ptr<PgConnection>> Connect(const std::string& dsn);
+  // Connects to `dsn` (a libpq connection string or postgres:// URI) and runs `setup`
+  // (SET statements; again after every reconnect) after turning synchronous_commit on.
+  // Unavailable if the server cannot be reached, with libpq's message (which never
+  // includes the password).
+  static absl::StatusOr<std::unique_ptr<PgConnection>> Connect(const std::string& dsn,
+                                                               const std::string& setup = "");
   ~PgConnection();
   PgConnection(const PgConnection&) = delete;
   PgConnection& operator=(const PgConnection&) = delete;
@@ -93,15 +96,19 @@ class PgConnection {
   absl::Status Reset();
 
  private:
-  explicit PgConnection(pg_conn* c) : c_(c) {}
+  PgConnection(pg_conn* c, std::string setup) : c_(c), setup_(std::move(setup)) {}
   absl::Status Check(pg_result* r, std::string_view sql) const;
+  absl::Status Setup();
   pg_conn* c_;
+  const std::string setup_;
 };
 
 class PgPool {
  public:
-  // Opens `size` connections to `dsn` (at least 1). The Connect error otherwise.
-  static absl::StatusOr<std::unique_ptr<PgPool>> Open(const std::string& dsn, int size);
+  // Opens `size` connections to `dsn` (at least 1), each set up with `setup` (Connect).
+  // The Connect error otherwise.
+  static absl::StatusOr<std::unique_ptr<PgPool>> Open(const std::string& dsn, int size,
+                                                      const std::string& setup = "");
 
   // A connection taken from the pool; back to it on destruction (a broken one is reset
   // first).

@@ -31,7 +31,17 @@ int64_t Clamp(size_t v) { return int64_t(std::min<size_t>(v, INT64_MAX)); }
 
 absl::StatusOr<std::unique_ptr<PostgresMapStore>> PostgresMapStore::Open(const std::string& dsn,
                                                                          const Options& options) {
-  SK_ASSIGN_OR_RETURN(pool, PgPool::Open(dsn, options.connections));
+  // A node paused inside a transaction (SIGSTOP, a partition) holds its row locks, the
+  // lease row's among them, and would keep the other nodes from taking its maps over: the
+  // server ends such a session after a lease time (the node's next statement then fails,
+  // and nothing of the transaction commits).
+  const int64_t idle_ms =
+      options.node_id.empty()
+          ? 60000
+          : std::max<int64_t>(1000, absl::ToInt64Milliseconds(options.lease_ttl));
+  SK_ASSIGN_OR_RETURN(
+      pool, PgPool::Open(dsn, options.connections,
+                         absl::StrCat("SET idle_in_transaction_session_timeout = ", idle_ms)));
   {
     PgPool::Lease c = pool->Take();
     SK_RETURN_IF_ERROR(MigratePostgres(*c));
