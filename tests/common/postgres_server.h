@@ -75,6 +75,8 @@ class PostgresServer {
     return Uri(db);
   }
   int port() const { return port_; }
+  // The cluster's directory (postmaster.pid holds the server's pid on its first line).
+  std::string data_dir() const { return dir_ + "/data"; }
   // pg_ctl with `args` (e.g. "-m fast stop"); its exit code.
   int Ctl(const std::string& args) {
     return Run(absl::StrCat(as_, Bin(), "/pg_ctl -D ", dir_, "/data ", args, " >>", dir_,

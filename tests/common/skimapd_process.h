@@ -130,6 +130,8 @@ class SkimapdProcess {
   }
 
   const std::string& address() const { return address_; }
+  // The process id (-1 when not running).
+  pid_t pid() const { return pid_; }
   // The --data_dir of the process (maps.sqlite, objects.sqlite); empty before Start.
   std::string data_dir() const { return data_dir_.empty() ? "" : data_dir_ + "/data"; }
 
