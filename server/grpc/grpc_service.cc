@@ -128,12 +128,12 @@ ServerUnaryReactor* GrpcMapService::RadiusSearch(CallbackServerContext* ctx,
 
 grpc::ServerWriteReactor<v1::ExportChunk>* GrpcMapService::ExportMap(
     CallbackServerContext* ctx, const v1::ExportMapRequest* request) {
-  return new ExportWriteReactor(core_, *request);
+  return new ExportWriteReactor(core_, &blocking_, *request);
 }
 
 grpc::ServerReadReactor<v1::ExportChunk>* GrpcMapService::ImportMap(CallbackServerContext* ctx,
                                                                     v1::Map* response) {
-  return new ImportReadReactor(core_, ctx, response);
+  return new ImportReadReactor(core_, &blocking_, ctx, response);
 }
 
 }  // namespace skimap::server

@@ -5,15 +5,19 @@
 // UpdatePoses, GetOccupancyGrid, GetHeightMap, GetVoxels, RadiusSearch (unary);
 // StreamFrames (bidi, FrameStreamReactor); StreamVoxels (server stream of GetVoxels pages);
 // ExportMap (server stream) and ImportMap (client stream) of export file pieces
-// (map_transfer_reactors.h).
+// (map_transfer_reactors.h), whose store work runs on the adapter's own threads.
 //
-// Thread safety: stateless apart from the core pointer; safe for concurrent calls.
+// Thread safety: safe for concurrent calls; no state but the core pointer and the threads
+// for blocking steps.
 #ifndef SERVER_GRPC_GRPC_SERVICE_H_
 #define SERVER_GRPC_GRPC_SERVICE_H_
 
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
+
 #include "server/maps/map_service.h"
+#include "server/work_queue.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
 namespace skimap::server {
@@ -21,10 +25,14 @@ namespace skimap::server {
 class GrpcMapService final : public v1::MapService::CallbackService {
  public:
   struct Options {
-    int max_in_flight = 8;  // unacknowledged frames per StreamFrames call
+    int max_in_flight = 8;     // unacknowledged frames per StreamFrames call
+    int transfer_threads = 2;  // threads for the store work of ExportMap / ImportMap
   };
-  // REQUIRES: core outlives this service and every call it started.
-  GrpcMapService(MapService* core, const Options& options) : core_(core), options_(options) {}
+  // REQUIRES: core outlives this service; the service outlives every call it started.
+  GrpcMapService(MapService* core, const Options& options)
+      : core_(core),
+        options_(options),
+        blocking_({.capacity = 1, .threads = std::max(1, options.transfer_threads)}) {}
 
   grpc::ServerUnaryReactor* CreateMap(grpc::CallbackServerContext* ctx,
                                       const v1::CreateMapRequest* request,
@@ -67,6 +75,7 @@ class GrpcMapService final : public v1::MapService::CallbackService {
  private:
   MapService* const core_;
   const Options options_;
+  WorkQueue blocking_;  // ExportMap / ImportMap steps (unbounded: one step per open call)
 };
 
 }  // namespace skimap::server

@@ -313,9 +313,11 @@ absl::StatusOr<std::shared_ptr<const v1::Frame>> LiveMap::FrameOf(const FrameInd
         options_.max_kept_frame_bytes, " bytes of frames are; this server has no data dir)"));
   }
   const auto pruned = [&] {
-    return absl::FailedPreconditionError(absl::StrCat(field, ".sequence: frame ", sequence,
-                                                      " was pruned from the journal by the ",
-                                                      RetentionPolicy()));
+    return absl::FailedPreconditionError(
+        absl::StrCat(field, ".sequence: frame ", sequence,
+                     " is no longer in the journal: pruned by the ", RetentionPolicy(),
+                     ", or left out of an export made without its journal (skimap export "
+                     "--with-journal keeps it)"));
   };
   if (index_.Pruned(entry)) return pruned();
   absl::StatusOr<storage::JournalRecord> record =
