@@ -65,6 +65,9 @@ using testing::FleetStreamer;
 using testing::PostgresServer;
 using testing::SkimapdProcess;
 
+// The tables; stdout is stderr for everything else (the skimapd children print there).
+std::FILE* g_out = stdout;
+
 void Check(bool ok, const std::string& what) {
   if (ok) return;
   std::fprintf(stderr, "CHECK FAILED: %s\n", what.c_str());
@@ -143,9 +146,9 @@ std::vector<std::unique_ptr<SkimapdProcess>> StartNodes(int n, const std::string
 
 void Ingest(PostgresServer& pg) {
   const int frames = absl::GetFlag(FLAGS_frames), streams = absl::GetFlag(FLAGS_streams);
-  std::printf("### Ingestion: %d streams x %d frames, 640x480 depth, window 8, max rate\n\n",
+  std::fprintf(g_out, "### Ingestion: %d streams x %d frames, 640x480 depth, window 8, max rate\n\n",
               streams, frames);
-  std::printf(
+  std::fprintf(g_out, 
       "| store | nodes | frames/s | ack p50 ms | ack p99 ms | skimapd CPU ms/frame | PostgreSQL "
       "CPU ms/frame |\n|---|---|---|---|---|---|---|\n");
   struct Config {
@@ -197,12 +200,12 @@ void Ingest(PostgresServer& pg) {
       Check(info.ok() && info->stats().frames() == uint64_t(frames), "map holds every frame");
     }
     const std::string pg_ms = c.postgres ? absl::StrFormat("%.1f", 1e3 * pg_cpu / total) : "-";
-    std::printf("| %s | %d | %.1f | %.1f | %.1f | %.1f | %s |\n", c.name, c.nodes, total / seconds,
+    std::fprintf(g_out, "| %s | %d | %.1f | %.1f | %.1f | %.1f | %s |\n", c.name, c.nodes, total / seconds,
                 Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99), 1e3 * node_cpu / total,
                 pg_ms.c_str());
-    std::fflush(stdout);
+    std::fflush(g_out);
   }
-  std::printf("\n");
+  std::fprintf(g_out, "\n");
 }
 
 void Failover(PostgresServer& pg) {
@@ -265,9 +268,9 @@ void Failover(PostgresServer& pg) {
     next = end;
     Check(nodes[victim]->Start().ok(), "restart the killed node");
   }
-  std::printf("### Failover: %d kills of the owner, lease %d ms, 3 nodes\n\n", kills, ttl_ms);
-  std::printf("| kills | min ms | median ms | p90 ms | max ms |\n|---|---|---|---|---|\n");
-  std::printf("| %d | %.0f | %.0f | %.0f | %.0f |\n\n", kills,
+  std::fprintf(g_out, "### Failover: %d kills of the owner, lease %d ms, 3 nodes\n\n", kills, ttl_ms);
+  std::fprintf(g_out, "| kills | min ms | median ms | p90 ms | max ms |\n|---|---|---|---|---|\n");
+  std::fprintf(g_out, "| %d | %.0f | %.0f | %.0f | %.0f |\n\n", kills,
               Percentile(failover_ms, 0), Percentile(failover_ms, 0.5),
               Percentile(failover_ms, 0.9), Percentile(failover_ms, 1.0));
 }
@@ -277,6 +280,9 @@ void Failover(PostgresServer& pg) {
 
 int main(int argc, char** argv) {
   absl::ParseCommandLine(argc, argv);
+  // The tables go to the real stdout; the children's output (inherited fd 1) to stderr.
+  skimap::bench::g_out = fdopen(dup(STDOUT_FILENO), "w");
+  dup2(STDERR_FILENO, STDOUT_FILENO);
   skimap::testing::PostgresServer pg;
   skimap::bench::Check(pg.Start().ok(), "PostgreSQL starts");
   char date[64];
@@ -287,7 +293,7 @@ int main(int argc, char** argv) {
     if (std::fscanf(f, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3) load[0] = -1;
     std::fclose(f);
   }
-  std::printf("Run of %s, %ld cores, load average %.1f at start.\n\n", date,
+  std::fprintf(skimap::bench::g_out, "Run of %s, %ld cores, load average %.1f at start.\n\n", date,
               sysconf(_SC_NPROCESSORS_ONLN), load[0]);
   const std::string parts = absl::GetFlag(FLAGS_parts);
   if (parts.find("ingest") != std::string::npos) skimap::bench::Ingest(pg);
