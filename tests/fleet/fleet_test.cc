@@ -28,8 +28,9 @@ namespace {
 
 constexpr int kLeaseTtlMs = 1500;
 // Kill to the first new frame acknowledged by another node: the lease running out, a
-// claim, the load (snapshot + journal tail) and the client's retry. Measured 1.7-2.4 s on
-// the 2-core dev machine (2025-02, under load from other builds); floor with margin.
+// claim, the load (snapshot + journal tail) and the client's retry. Measured 1.4 s here
+// (2026-11-24, 2 cores under load; fleet_bench: median 2.1 s over 20 kills at a 2000 ms
+// lease); the floor leaves 4 s of margin over the lease for loaded CI machines.
 const absl::Duration kFailoverLimit = absl::Milliseconds(kLeaseTtlMs + 4000);
 
 Eigen::Isometry3d View(uint64_t i) {
