@@ -146,9 +146,11 @@ std::vector<std::unique_ptr<SkimapdProcess>> StartNodes(int n, const std::string
 
 void Ingest(PostgresServer& pg) {
   const int frames = absl::GetFlag(FLAGS_frames), streams = absl::GetFlag(FLAGS_streams);
-  std::fprintf(g_out, "### Ingestion: %d streams x %d frames, 640x480 depth, window 8, max rate\n\n",
-              streams, frames);
-  std::fprintf(g_out, 
+  std::fprintf(g_out,
+               "### Ingestion: %d streams x %d frames, 640x480 depth, window 8, max rate\n\n",
+               streams, frames);
+  std::fprintf(
+      g_out,
       "| store | nodes | frames/s | ack p50 ms | ack p99 ms | skimapd CPU ms/frame | PostgreSQL "
       "CPU ms/frame |\n|---|---|---|---|---|---|---|\n");
   struct Config {
@@ -157,8 +159,8 @@ void Ingest(PostgresServer& pg) {
     int nodes;
   };
   int db = 0;
-  for (const Config& c : {Config{"SQLite", false, 1}, Config{"PostgreSQL", true, 1},
-                          Config{"PostgreSQL", true, 3}}) {
+  for (const Config& c :
+       {Config{"SQLite", false, 1}, Config{"PostgreSQL", true, 1}, Config{"PostgreSQL", true, 3}}) {
     std::fprintf(stderr, "fleet_bench: ingest, %s, %d node(s)\n", c.name, c.nodes);
     const std::string dsn = c.postgres ? pg.Dsn(absl::StrCat("ingest", ++db)) : "";
     auto nodes = StartNodes(c.nodes, dsn);
@@ -178,7 +180,8 @@ void Ingest(PostgresServer& pg) {
     for (int i = 0; i < streams; ++i) {
       threads.emplace_back([&, i] {
         const std::string map = absl::StrCat("maps/s", i);
-        FleetStreamer s(addresses, map, [&](uint64_t q) { return Frame(map, q); }, 8);
+        FleetStreamer s(
+            addresses, map, [&](uint64_t q) { return Frame(map, q); }, 8);
         s.StartAt(i % c.nodes);
         s.OnAck([&](uint64_t, absl::Duration d) {
           std::lock_guard<std::mutex> lock(mu);
@@ -191,7 +194,8 @@ void Ingest(PostgresServer& pg) {
     for (std::thread& t : threads) t.join();
     const double seconds = absl::ToDoubleSeconds(absl::Now() - start);
     double node_cpu = 0;
-    for (size_t i = 0; i < nodes.size(); ++i) node_cpu += CpuSeconds(nodes[i]->pid()) - node_cpu_before[i];
+    for (size_t i = 0; i < nodes.size(); ++i)
+      node_cpu += CpuSeconds(nodes[i]->pid()) - node_cpu_before[i];
     const double pg_cpu = c.postgres ? PostgresCpuSeconds(pg) - pg_cpu_before : 0;
     const int total = streams * frames;
     for (int i = 0; i < streams; ++i) {
@@ -200,9 +204,9 @@ void Ingest(PostgresServer& pg) {
       Check(info.ok() && info->stats().frames() == uint64_t(frames), "map holds every frame");
     }
     const std::string pg_ms = c.postgres ? absl::StrFormat("%.1f", 1e3 * pg_cpu / total) : "-";
-    std::fprintf(g_out, "| %s | %d | %.1f | %.1f | %.1f | %.1f | %s |\n", c.name, c.nodes, total / seconds,
-                Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99), 1e3 * node_cpu / total,
-                pg_ms.c_str());
+    std::fprintf(g_out, "| %s | %d | %.1f | %.1f | %.1f | %.1f | %s |\n", c.name, c.nodes,
+                 total / seconds, Percentile(latency_ms, 0.5), Percentile(latency_ms, 0.99),
+                 1e3 * node_cpu / total, pg_ms.c_str());
     std::fflush(g_out);
   }
   std::fprintf(g_out, "\n");
@@ -234,7 +238,8 @@ void Failover(PostgresServer& pg) {
     std::mutex mu;
     absl::Time killed = absl::InfiniteFuture(), first = absl::InfiniteFuture();
     uint64_t acked = 0, highest = 0;
-    FleetStreamer s(addresses, map, [&](uint64_t q) { return Frame(map, q); }, 8);
+    FleetStreamer s(
+        addresses, map, [&](uint64_t q) { return Frame(map, q); }, 8);
     s.StartAt(victim);
     s.OnAck([&](uint64_t q, absl::Duration) {
       std::lock_guard<std::mutex> lock(mu);
@@ -268,11 +273,12 @@ void Failover(PostgresServer& pg) {
     next = end;
     Check(nodes[victim]->Start().ok(), "restart the killed node");
   }
-  std::fprintf(g_out, "### Failover: %d kills of the owner, lease %d ms, 3 nodes\n\n", kills, ttl_ms);
+  std::fprintf(g_out, "### Failover: %d kills of the owner, lease %d ms, 3 nodes\n\n", kills,
+               ttl_ms);
   std::fprintf(g_out, "| kills | min ms | median ms | p90 ms | max ms |\n|---|---|---|---|---|\n");
-  std::fprintf(g_out, "| %d | %.0f | %.0f | %.0f | %.0f |\n\n", kills,
-              Percentile(failover_ms, 0), Percentile(failover_ms, 0.5),
-              Percentile(failover_ms, 0.9), Percentile(failover_ms, 1.0));
+  std::fprintf(g_out, "| %d | %.0f | %.0f | %.0f | %.0f |\n\n", kills, Percentile(failover_ms, 0),
+               Percentile(failover_ms, 0.5), Percentile(failover_ms, 0.9),
+               Percentile(failover_ms, 1.0));
 }
 
 }  // namespace
@@ -294,7 +300,7 @@ int main(int argc, char** argv) {
     std::fclose(f);
   }
   std::fprintf(skimap::bench::g_out, "Run of %s, %ld cores, load average %.1f at start.\n\n", date,
-              sysconf(_SC_NPROCESSORS_ONLN), load[0]);
+               sysconf(_SC_NPROCESSORS_ONLN), load[0]);
   const std::string parts = absl::GetFlag(FLAGS_parts);
   if (parts.find("ingest") != std::string::npos) skimap::bench::Ingest(pg);
   if (parts.find("failover") != std::string::npos) skimap::bench::Failover(pg);
