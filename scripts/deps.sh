@@ -6,7 +6,8 @@ set -euo pipefail
 pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libeigen3-dev libopencv-dev libsqlite3-dev libzstd-dev nlohmann-json3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto)
+  libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
+  libpq-dev postgresql)
 if [[ "${1:-}" == "--bench" ]]; then
   pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev)
 fi
@@ -20,3 +21,5 @@ if ((${#missing[@]})); then
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+# postgresql: the PostgreSQL tests start throwaway servers of their own
+# (tests/common/postgres_server.h); the package's default cluster is not used.

@@ -175,6 +175,40 @@ absl::Status MapRegistry::Delete(const std::string& id) {
   return absl::OkStatus();  // `doomed` released outside the lock
 }
 
+void MapRegistry::Reset(const std::string& id, const MapConfig& config) { Replace(id, &config); }
+
+void MapRegistry::Unload(const std::string& id) { Replace(id, nullptr); }
+
+void MapRegistry::Replace(const std::string& id, const MapConfig* config) {
+  std::shared_ptr<std::mutex> load_mu;
+  {
+    WriterLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end()) {
+      if (config != nullptr) maps_[id] = Entry{.config = *config};
+      return;
+    }
+    load_mu = it->second.load_mu;
+  }
+  std::lock_guard<std::mutex> no_load(*load_mu);  // not while it loads or leaves memory
+  std::shared_ptr<LiveMap> dropped;
+  {
+    WriterLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end()) {
+      if (config != nullptr) maps_[id] = Entry{.config = *config};
+      return;
+    }
+    dropped = std::move(it->second.map);
+    it->second.error = absl::OkStatus();
+    if (config != nullptr) it->second.config = *config;
+  }
+  if (dropped != nullptr) {
+    dropped->MarkEvicted();  // no snapshot: the store refuses this node's writes anyway
+    dropped->Drain();
+  }
+}
+
 uint64_t MapRegistry::LoadedBytes() const {
   uint64_t total = 0;
   ReaderLock lock(&mu_);

@@ -22,6 +22,7 @@
 #include "absl/time/time.h"
 #include "server/maps/map_exporter.h"
 #include "server/maps/map_importer.h"
+#include "server/maps/map_ownership.h"
 #include "server/maps/map_registry.h"
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
@@ -58,6 +59,10 @@ class MapService {
     uint64_t journal_retain_bytes = uint64_t{1} << 30;
     // The object classifier for maps with recognition (LiveMap::Options::classifier).
     std::function<std::shared_ptr<const objects::ObjectDatabase>()> classifier;
+    // A fleet node (server/fleet/fleet_node.h; not owned, outlives the service): every
+    // request for a map claims it first (map_service_fleet.cc), maps are loaded on first
+    // use, and ListMaps lists the store's maps with their owners. Null: a single server.
+    MapOwnership* ownership = nullptr;
   };
   explicit MapService(const Options& options);
   ~MapService();
@@ -134,6 +139,13 @@ class MapService {
                                                    const char* field) const;
 
   v1::Map Describe(const MapRegistry::Listed& listed) const;
+  // Fleet nodes (map_service_fleet.cc). ClaimMap: OK once this node may serve map `id`,
+  // which it then (re)loads from the store if the lease was just taken; the claim's error
+  // otherwise (NotFound, a redirect). SyncWithStore: registers the store's maps not known
+  // here and forgets those deleted by other nodes. Owners: owner of each map, or empty.
+  absl::Status ClaimMap(const std::string& id) const;
+  void SyncWithStore() const;
+  std::map<std::string, MapOwnership::Owner> Owners() const;
   void MaintenanceLoop();
 
   const Options options_;
