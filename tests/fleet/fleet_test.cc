@@ -26,6 +26,17 @@
 namespace skimap::testing {
 namespace {
 
+// Runs the skimap CLI with args; its standard output.
+std::string RunCli(const std::string& args) {
+  std::string out;
+  FILE* p = popen(absl::StrCat(SKIMAP_CLI_PATH, " ", args, " 2>&1").c_str(), "r");
+  if (p == nullptr) return out;
+  char buf[4096];
+  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  pclose(p);
+  return out;
+}
+
 constexpr int kLeaseTtlMs = 1500;
 // Kill to the first new frame acknowledged by another node: the lease running out, a
 // claim, the load (snapshot + journal tail) and the client's retry. Measured 1.4 s here
@@ -196,6 +207,19 @@ TEST_F(FleetTest, KillingAnOwnerMidStreamLosesNoAcknowledgedFrame) {
   int live = 0;
   for (const v1::Node& n : nodes->nodes()) live += n.live() ? 1 : 0;
   EXPECT_EQ(live, 2);
+
+  // `skimap nodes` through a surviving node: a line per node with its address and state,
+  // the owned maps listed under their owner.
+  const std::string out = RunCli(absl::StrCat("--server=", addresses_[1], " nodes"));
+  for (const v1::Node& n : nodes->nodes()) {
+    EXPECT_NE(out.find(absl::StrCat(n.address(), "  ", n.live() ? "live" : "silent")),
+              std::string::npos)
+        << out;
+    for (const std::string& m : n.maps()) EXPECT_NE(out.find("\n  " + m), std::string::npos);
+  }
+  int owned = 0;
+  for (const v1::Node& n : nodes->nodes()) owned += n.maps_size();
+  EXPECT_EQ(owned, 2 * kMaps) << out;  // the maps and their rebuilds
 }
 
 TEST_F(FleetTest, APausedOwnerWhoseLeaseExpiredCannotCommitAfterResuming) {
