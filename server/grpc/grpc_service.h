@@ -13,6 +13,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "server/grpc/stream_limiter.h"
 #include "server/maps/map_service.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
@@ -22,9 +23,13 @@ class GrpcMapService final : public v1::MapService::CallbackService {
  public:
   struct Options {
     int max_in_flight = 8;  // unacknowledged frames per StreamFrames call
+    // Open StreamFrames calls per client (peer address without port); the next one is
+    // refused with RESOURCE_EXHAUSTED (stream_limiter.h). 0 = no limit.
+    int max_streams_per_client = 0;
   };
   // REQUIRES: core outlives this service and every call it started.
-  GrpcMapService(MapService* core, const Options& options) : core_(core), options_(options) {}
+  GrpcMapService(MapService* core, const Options& options)
+      : core_(core), options_(options), streams_(options.max_streams_per_client) {}
 
   grpc::ServerUnaryReactor* CreateMap(grpc::CallbackServerContext* ctx,
                                       const v1::CreateMapRequest* request,
@@ -67,6 +72,7 @@ class GrpcMapService final : public v1::MapService::CallbackService {
  private:
   MapService* const core_;
   const Options options_;
+  StreamLimiter streams_;
 };
 
 }  // namespace skimap::server
