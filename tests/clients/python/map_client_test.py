@@ -31,6 +31,16 @@ ARGS = None
 FRAMES = 5  # of the 10 in the sample
 
 
+def read_json(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def read_bytes(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
 def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -102,7 +112,7 @@ class SkimapdTest(unittest.TestCase):
         return call(request, timeout=60)
 
     def frames(self, map_name):
-        cameras = json.load(open(os.path.join(ARGS.scene, "scene_camera.json")))
+        cameras = read_json(os.path.join(ARGS.scene, "scene_camera.json"))
         for index in sorted(cameras, key=int)[:FRAMES]:
             cam = cameras[index]
             r_w2c = mat3(cam["cam_R_w2c"])
@@ -120,16 +130,16 @@ class SkimapdTest(unittest.TestCase):
             frame.intrinsics.width, frame.intrinsics.height = 640, 480
             name = "%06d.png" % int(index)
             frame.depth_encoding = pb.frames.DEPTH_ENCODING_PNG16
-            frame.depth = open(os.path.join(ARGS.scene, "depth", name), "rb").read()
+            frame.depth = read_bytes(os.path.join(ARGS.scene, "depth", name))
             frame.depth_scale = cam["depth_scale"] / 1000  # BOP: depth units are 0.1 mm
             frame.color_encoding = pb.frames.COLOR_ENCODING_PNG
-            frame.color = open(os.path.join(ARGS.scene, "rgb", name), "rb").read()
+            frame.color = read_bytes(os.path.join(ARGS.scene, "rgb", name))
             yield frame
 
     def object_centres(self):
         """World positions of the scene's objects (scene_gt.json of the first frame)."""
-        cam = json.load(open(os.path.join(ARGS.scene, "scene_camera.json")))["0"]
-        gt = json.load(open(os.path.join(ARGS.scene, "scene_gt.json")))["0"]
+        cam = read_json(os.path.join(ARGS.scene, "scene_camera.json"))["0"]
+        gt = read_json(os.path.join(ARGS.scene, "scene_gt.json"))["0"]
         r_c2w = transpose(mat3(cam["cam_R_w2c"]))
         centres = []
         for obj in gt:
