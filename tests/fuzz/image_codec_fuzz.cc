@@ -77,8 +77,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     default: {
       const auto format = which == 6 ? skimap::perception::ImageFormat::kPng
                                      : skimap::perception::ImageFormat::kJpeg;
-      absl::StatusOr<skimap::perception::ImageHeader> h =
-          skimap::perception::ReadImageHeader(format, bytes, "image");
+      absl::StatusOr<skimap::perception::ImageHeader> h = skimap::perception::ReadImageHeader(
+          format, absl::string_view(bytes.data(), bytes.size()), "image");
       if (h.ok() && (h->width < 0 || h->height < 0)) Fail("negative image size in a header");
     }
   }

@@ -16,6 +16,8 @@
 #include "server/maps/chunk_codec.h"
 #include "server/maps/frame_index.h"
 #include "server/maps/map_export.h"
+#include "skimap/hypotheses_voxel.h"
+#include "skimap/label_voxel.h"
 #include "skimap/serialization.h"
 #include "skimap/v1/map_service.pb.h"
 #include "tests/fuzz/fuzz_input.h"
@@ -173,7 +175,7 @@ std::vector<VoxelBatch<RGBWeightedVoxel>::Item> ChunkVoxels() {
 }
 
 void ChunkSeeds() {
-  const ChunkCoord c{-2, 3, 0};
+  const server::ChunkCoord c{-2, 3, 0};
   Write("chunk_codec", "rgb",
         Byte(1) + server::EncodeVoxelChunk<RGBWeightedVoxel>(c, ChunkVoxels()));
   std::vector<VoxelBatch<WeightVoxel>::Item> weights;
