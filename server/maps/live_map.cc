@@ -168,27 +168,30 @@ absl::Status LiveMap::LoadSnapshotOnWorker() {
   absl::StatusOr<uint64_t> covered;
   {
     WriterLock lock(&snapshot_mu_);
-    covered = store.ReadSnapshot(id_, [&](const storage::Chunk& c) -> absl::Status {
-      if (c.key.volume == kFramesVolume) {
-        absl::Status s = index_.DecodeBucket(c.key.x, c.bytes);
-        return s.ok() ? s : chunk_error(c.key, s);
-      }
-      if (!ValidChunkCoord(c.key)) {
-        return chunk_error(c.key, absl::DataLossError("coordinates outside the key range"));
-      }
-      const ChunkCoord coord{int32_t(c.key.x), int32_t(c.key.y), int32_t(c.key.z)};
-      absl::Status s = absl::FailedPreconditionError("unknown volume (written by a newer server?)");
-      state_.ForEachVolume([&](const char* name, auto& volume, DirtyChunks&) {
-        if (c.key.volume != name) return;
-        using V = typename std::remove_reference_t<decltype(volume)>::VoxelType;
-        VoxelBatch<V> batch;
-        s = DecodeVoxelChunk<V>(coord, c.bytes, &batch);
-        if (!s.ok()) return;
-        batch.Finalize();  // sorted and unique already; marks the batch ready
-        volume.Integrate(batch);
-      });
-      return s.ok() ? s : chunk_error(c.key, s);
-    });
+    // ReadSnapshot calls back synchronously, under the lock taken above.
+    covered = store.ReadSnapshot(
+        id_, [&](const storage::Chunk& c) ABSL_EXCLUSIVE_LOCKS_REQUIRED(snapshot_mu_) {
+          if (c.key.volume == kFramesVolume) {
+            absl::Status s = index_.DecodeBucket(c.key.x, c.bytes);
+            return s.ok() ? s : chunk_error(c.key, s);
+          }
+          if (!ValidChunkCoord(c.key)) {
+            return chunk_error(c.key, absl::DataLossError("coordinates outside the key range"));
+          }
+          const ChunkCoord coord{int32_t(c.key.x), int32_t(c.key.y), int32_t(c.key.z)};
+          absl::Status s =
+              absl::FailedPreconditionError("unknown volume (written by a newer server?)");
+          state_.ForEachVolume([&](const char* name, auto& volume, DirtyChunks&) {
+            if (c.key.volume != name) return;
+            using V = typename std::remove_reference_t<decltype(volume)>::VoxelType;
+            VoxelBatch<V> batch;
+            s = DecodeVoxelChunk<V>(coord, c.bytes, &batch);
+            if (!s.ok()) return;
+            batch.Finalize();  // sorted and unique already; marks the batch ready
+            volume.Integrate(batch);
+          });
+          return s.ok() ? s : chunk_error(c.key, s);
+        });
     if (!covered.ok()) return covered.status();
     state_.frames = index_.size();
     state_.journal_position = *covered;
@@ -478,7 +481,9 @@ absl::Status LiveMap::SnapshotLocked() {
     // Pending again: the next snapshot writes these chunks (with their newer content).
     {
       WriterLock lock(&snapshot_mu_);
-      for (const auto& [name, coord] : c->coords) {
+      for (const auto& entry : c->coords) {
+        const auto& name = entry.first;  // not a structured binding: clang 14 cannot capture one
+        const auto& coord = entry.second;
         state_.ForEachVolume([&](const char* n, auto&, DirtyChunks& dirty) {
           if (name == n) dirty.insert(coord);
         });
