@@ -44,6 +44,10 @@ struct LiveMap::Capture {
 
 namespace {
 
+// Tells clang's thread-safety analysis that `mu` is held exclusively, in callbacks that run
+// under it; checks nothing at run time.
+void AssumeHeld(const RwLock& mu) ABSL_ASSERT_EXCLUSIVE_LOCK(mu) {}
+
 constexpr char kFramesVolume[] = "frames";  // chunk volume name of the frame index
 constexpr size_t kReplayBatch = 64;         // journal records read per store call
 
@@ -168,30 +172,28 @@ absl::Status LiveMap::LoadSnapshotOnWorker() {
   absl::StatusOr<uint64_t> covered;
   {
     WriterLock lock(&snapshot_mu_);
-    // ReadSnapshot calls back synchronously, under the lock taken above.
-    covered = store.ReadSnapshot(
-        id_, [&](const storage::Chunk& c) ABSL_EXCLUSIVE_LOCKS_REQUIRED(snapshot_mu_) {
-          if (c.key.volume == kFramesVolume) {
-            absl::Status s = index_.DecodeBucket(c.key.x, c.bytes);
-            return s.ok() ? s : chunk_error(c.key, s);
-          }
-          if (!ValidChunkCoord(c.key)) {
-            return chunk_error(c.key, absl::DataLossError("coordinates outside the key range"));
-          }
-          const ChunkCoord coord{int32_t(c.key.x), int32_t(c.key.y), int32_t(c.key.z)};
-          absl::Status s =
-              absl::FailedPreconditionError("unknown volume (written by a newer server?)");
-          state_.ForEachVolume([&](const char* name, auto& volume, DirtyChunks&) {
-            if (c.key.volume != name) return;
-            using V = typename std::remove_reference_t<decltype(volume)>::VoxelType;
-            VoxelBatch<V> batch;
-            s = DecodeVoxelChunk<V>(coord, c.bytes, &batch);
-            if (!s.ok()) return;
-            batch.Finalize();  // sorted and unique already; marks the batch ready
-            volume.Integrate(batch);
-          });
-          return s.ok() ? s : chunk_error(c.key, s);
-        });
+    covered = store.ReadSnapshot(id_, [&](const storage::Chunk& c) -> absl::Status {
+      AssumeHeld(snapshot_mu_);  // ReadSnapshot calls back here, under the lock above
+      if (c.key.volume == kFramesVolume) {
+        absl::Status s = index_.DecodeBucket(c.key.x, c.bytes);
+        return s.ok() ? s : chunk_error(c.key, s);
+      }
+      if (!ValidChunkCoord(c.key)) {
+        return chunk_error(c.key, absl::DataLossError("coordinates outside the key range"));
+      }
+      const ChunkCoord coord{int32_t(c.key.x), int32_t(c.key.y), int32_t(c.key.z)};
+      absl::Status s = absl::FailedPreconditionError("unknown volume (written by a newer server?)");
+      state_.ForEachVolume([&](const char* name, auto& volume, DirtyChunks&) {
+        if (c.key.volume != name) return;
+        using V = typename std::remove_reference_t<decltype(volume)>::VoxelType;
+        VoxelBatch<V> batch;
+        s = DecodeVoxelChunk<V>(coord, c.bytes, &batch);
+        if (!s.ok()) return;
+        batch.Finalize();  // sorted and unique already; marks the batch ready
+        volume.Integrate(batch);
+      });
+      return s.ok() ? s : chunk_error(c.key, s);
+    });
     if (!covered.ok()) return covered.status();
     state_.frames = index_.size();
     state_.journal_position = *covered;
@@ -481,11 +483,9 @@ absl::Status LiveMap::SnapshotLocked() {
     // Pending again: the next snapshot writes these chunks (with their newer content).
     {
       WriterLock lock(&snapshot_mu_);
-      for (const auto& entry : c->coords) {
-        const auto& name = entry.first;  // not a structured binding: clang 14 cannot capture one
-        const auto& coord = entry.second;
+      for (const auto& entry : c->coords) {  // (volume, chunk); clang 14 cannot capture bindings
         state_.ForEachVolume([&](const char* n, auto&, DirtyChunks& dirty) {
-          if (name == n) dirty.insert(coord);
+          if (entry.first == n) dirty.insert(entry.second);
         });
       }
     }
