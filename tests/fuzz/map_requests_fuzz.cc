@@ -64,6 +64,8 @@ MapService& Service() {
     auto* s = new MapService({.worker_threads = 1,
                               .queue_capacity = 4,
                               .max_frame_bytes = 1 << 20,
+                              // As a deployment would: a 8192 x 8192 frame takes seconds.
+                              .max_frame_pixels = 1 << 20,
                               .max_kept_frame_bytes = 16 << 20,
                               .max_maps = 16,
                               .max_reply_bytes = 1 << 20});
