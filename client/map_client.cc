@@ -2,11 +2,43 @@
 
 #include <chrono>
 
+#include "absl/strings/cord.h"
+#include "absl/strings/str_cat.h"
+
 namespace skimap::client {
+
+namespace {
+
+constexpr char kRedirectUrl[] = "type.googleapis.com/skimap.v1.MapRedirect";
+
+// The MapRedirect in a call's status details (skimap.v1.StatusDetails), if any.
+std::optional<v1::MapRedirect> DetailsRedirect(const grpc::Status& s) {
+  if (s.error_details().empty()) return std::nullopt;
+  v1::StatusDetails details;
+  if (!details.ParseFromString(s.error_details())) return std::nullopt;
+  for (const google::protobuf::Any& any : details.details()) {
+    v1::MapRedirect r;
+    if (any.UnpackTo(&r) && !r.address().empty()) return r;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
 
 absl::Status FromGrpcStatus(const grpc::Status& s) {
   if (s.ok()) return absl::OkStatus();
-  return absl::Status(static_cast<absl::StatusCode>(s.error_code()), s.error_message());
+  absl::Status out(static_cast<absl::StatusCode>(s.error_code()), s.error_message());
+  if (std::optional<v1::MapRedirect> r = DetailsRedirect(s)) {
+    out.SetPayload(kRedirectUrl, absl::Cord(r->SerializeAsString()));
+  }
+  return out;
+}
+
+std::optional<v1::MapRedirect> RedirectOf(const absl::Status& status) {
+  absl::optional<absl::Cord> payload = status.GetPayload(kRedirectUrl);
+  v1::MapRedirect r;
+  if (!payload.has_value() || !r.ParseFromString(std::string(*payload))) return std::nullopt;
+  return r;
 }
 
 std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int max_message_bytes) {
@@ -17,12 +49,63 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int max_me
 }
 
 std::unique_ptr<MapClient> MapClient::Connect(const std::string& target, const Options& options) {
-  return std::unique_ptr<MapClient>(
-      new MapClient(MakeChannel(target, options.max_message_bytes), options));
+  return std::unique_ptr<MapClient>(new MapClient(target, options));
 }
 
-MapClient::MapClient(std::shared_ptr<grpc::Channel> channel, const Options& options)
-    : options_(options), channel_(std::move(channel)), stub_(v1::MapService::NewStub(channel_)) {}
+MapClient::MapClient(const std::string& target, const Options& options)
+    : options_(options),
+      target_(target),
+      channel_(MakeChannel(target, options.max_message_bytes)),
+      stub_(v1::MapService::NewStub(channel_)) {}
+
+v1::MapService::Stub* MapClient::StubForMap(const std::string& name) {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = owners_.find(name);
+  return it == owners_.end() ? stub_.get() : it->second;
+}
+
+v1::MapService::Stub* MapClient::Follow(const grpc::Status& status, int* hops) {
+  std::optional<v1::MapRedirect> r = DetailsRedirect(status);
+  if (!r.has_value() || *hops >= options_.max_redirects) return nullptr;
+  ++*hops;
+  std::lock_guard<std::mutex> lock(mu_);
+  std::unique_ptr<v1::MapService::Stub>& stub = stubs_[r->address()];
+  if (stub == nullptr) {
+    stub = v1::MapService::NewStub(MakeChannel(r->address(), options_.max_message_bytes));
+  }
+  owners_[r->map()] = stub.get();
+  return stub.get();
+}
+
+template <class Request, class Response>
+absl::StatusOr<Response> MapClient::Call(
+    grpc::Status (v1::MapService::Stub::*method)(grpc::ClientContext*, const Request&, Response*),
+    const std::string& name, const Request& request) {
+  v1::MapService::Stub* stub = StubForMap(name);
+  for (int hops = 0;;) {
+    grpc::ClientContext ctx;
+    SetDeadline(&ctx);
+    Response response;
+    const grpc::Status s = (stub->*method)(&ctx, request, &response);
+    if (s.ok()) return response;
+    stub = Follow(s, &hops);
+    if (stub == nullptr) return FromGrpcStatus(s);
+  }
+}
+
+absl::StatusOr<v1::ListNodesResponse> MapClient::ListNodes() {
+  std::unique_ptr<v1::FleetService::Stub> fleet = v1::FleetService::NewStub(channel_);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx);
+  v1::ListNodesResponse response;
+  const grpc::Status s = fleet->ListNodes(&ctx, v1::ListNodesRequest(), &response);
+  if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(target_, " is not a fleet node (skimapd without --store=postgresql://...)"));
+  }
+  if (!s.ok()) return FromGrpcStatus(s);
+  return response;
+}
 
 absl::Status MapClient::WaitForServer(absl::Duration timeout) {
   if (channel_->WaitForConnected(absl::ToChronoTime(absl::Now() + timeout))) {
@@ -35,37 +118,18 @@ void MapClient::SetDeadline(grpc::ClientContext* ctx) const {
   ctx->set_deadline(absl::ToChronoTime(absl::Now() + options_.timeout));
 }
 
-namespace {
-
-// A unary call with a fresh context and deadline; the status converted once.
-template <class Request, class Response>
-absl::StatusOr<Response> Unary(v1::MapService::Stub& stub,
-                               grpc::Status (v1::MapService::Stub::*method)(grpc::ClientContext*,
-                                                                            const Request&,
-                                                                            Response*),
-                               const Request& request, absl::Duration timeout) {
-  grpc::ClientContext ctx;
-  ctx.set_deadline(absl::ToChronoTime(absl::Now() + timeout));
-  Response response;
-  const grpc::Status s = (stub.*method)(&ctx, request, &response);
-  if (!s.ok()) return FromGrpcStatus(s);
-  return response;
-}
-
-}  // namespace
-
 absl::StatusOr<v1::Map> MapClient::CreateMap(const v1::CreateMapRequest& request) {
-  return Unary(*stub_, &v1::MapService::Stub::CreateMap, request, options_.timeout);
+  return Call(&v1::MapService::Stub::CreateMap, "maps/" + request.map_id(), request);
 }
 
 absl::StatusOr<v1::Map> MapClient::GetMap(const std::string& name) {
   v1::GetMapRequest request;
   request.set_name(name);
-  return Unary(*stub_, &v1::MapService::Stub::GetMap, request, options_.timeout);
+  return Call(&v1::MapService::Stub::GetMap, name, request);
 }
 
 absl::StatusOr<v1::ListMapsResponse> MapClient::ListMaps(const v1::ListMapsRequest& request) {
-  return Unary(*stub_, &v1::MapService::Stub::ListMaps, request, options_.timeout);
+  return Call(&v1::MapService::Stub::ListMaps, "", request);  // any node lists every map
 }
 
 absl::StatusOr<std::vector<v1::Map>> MapClient::ListAllMaps() {
@@ -83,77 +147,86 @@ absl::StatusOr<std::vector<v1::Map>> MapClient::ListAllMaps() {
 absl::Status MapClient::DeleteMap(const std::string& name) {
   v1::DeleteMapRequest request;
   request.set_name(name);
-  grpc::ClientContext ctx;
-  SetDeadline(&ctx);
-  v1::DeleteMapResponse response;
-  return FromGrpcStatus(stub_->DeleteMap(&ctx, request, &response));
+  return Call(&v1::MapService::Stub::DeleteMap, name, request).status();
 }
 
 absl::StatusOr<v1::FrameAck> MapClient::IntegrateFrame(const v1::Frame& frame) {
-  return Unary(*stub_, &v1::MapService::Stub::IntegrateFrame, frame, options_.timeout);
+  return Call(&v1::MapService::Stub::IntegrateFrame, frame.map(), frame);
 }
 
 absl::StatusOr<v1::UpdatePosesResponse> MapClient::UpdatePoses(
     const v1::UpdatePosesRequest& request) {
-  return Unary(*stub_, &v1::MapService::Stub::UpdatePoses, request, options_.timeout);
+  return Call(&v1::MapService::Stub::UpdatePoses, request.map(), request);
 }
 
-std::unique_ptr<FrameStream> MapClient::OpenFrameStream(const FrameStream::Options& options) {
-  return std::make_unique<FrameStream>(stub_.get(), options);
+std::unique_ptr<FrameStream> MapClient::OpenFrameStream(const FrameStream::Options& options,
+                                                        const std::string& map) {
+  return std::make_unique<FrameStream>(StubForMap(map), options);
 }
 
 absl::StatusOr<v1::OccupancyGrid> MapClient::GetOccupancyGrid(
     const v1::GetOccupancyGridRequest& request) {
-  return Unary(*stub_, &v1::MapService::Stub::GetOccupancyGrid, request, options_.timeout);
+  return Call(&v1::MapService::Stub::GetOccupancyGrid, request.map(), request);
 }
 
 absl::StatusOr<v1::HeightMap> MapClient::GetHeightMap(const v1::GetHeightMapRequest& request) {
-  return Unary(*stub_, &v1::MapService::Stub::GetHeightMap, request, options_.timeout);
+  return Call(&v1::MapService::Stub::GetHeightMap, request.map(), request);
 }
 
 absl::StatusOr<v1::GetVoxelsResponse> MapClient::GetVoxels(const v1::GetVoxelsRequest& request) {
-  return Unary(*stub_, &v1::MapService::Stub::GetVoxels, request, options_.timeout);
+  return Call(&v1::MapService::Stub::GetVoxels, request.map(), request);
 }
 
 absl::StatusOr<std::vector<v1::Voxel>> MapClient::GetAllVoxels(
     const v1::GetVoxelsRequest& request) {
-  grpc::ClientContext ctx;
-  SetDeadline(&ctx);
-  std::unique_ptr<grpc::ClientReader<v1::GetVoxelsResponse>> reader =
-      stub_->StreamVoxels(&ctx, request);
-  std::vector<v1::Voxel> voxels;
-  v1::GetVoxelsResponse page;
-  while (reader->Read(&page))
-    voxels.insert(voxels.end(), page.voxels().begin(), page.voxels().end());
-  grpc::Status s = reader->Finish();
-  if (!s.ok()) return FromGrpcStatus(s);
-  return voxels;
+  v1::MapService::Stub* stub = StubForMap(request.map());
+  for (int hops = 0;;) {
+    grpc::ClientContext ctx;
+    SetDeadline(&ctx);
+    std::unique_ptr<grpc::ClientReader<v1::GetVoxelsResponse>> reader =
+        stub->StreamVoxels(&ctx, request);
+    std::vector<v1::Voxel> voxels;
+    v1::GetVoxelsResponse page;
+    while (reader->Read(&page)) {
+      voxels.insert(voxels.end(), page.voxels().begin(), page.voxels().end());
+    }
+    const grpc::Status s = reader->Finish();
+    if (s.ok()) return voxels;
+    // A redirect comes before the first page.
+    if (!voxels.empty() || (stub = Follow(s, &hops)) == nullptr) return FromGrpcStatus(s);
+  }
 }
 
 absl::StatusOr<v1::RadiusSearchResponse> MapClient::RadiusSearch(
     const v1::RadiusSearchRequest& request) {
-  return Unary(*stub_, &v1::MapService::Stub::RadiusSearch, request, options_.timeout);
+  return Call(&v1::MapService::Stub::RadiusSearch, request.map(), request);
 }
 
 absl::Status MapClient::ExportMap(const v1::ExportMapRequest& request,
                                   const std::function<absl::Status(std::string_view)>& sink) {
-  grpc::ClientContext ctx;
-  ctx.set_deadline(absl::ToChronoTime(absl::Now() + options_.transfer_timeout));
-  std::unique_ptr<grpc::ClientReader<v1::ExportChunk>> reader = stub_->ExportMap(&ctx, request);
-  v1::ExportChunk piece;
-  absl::Status sunk;
-  while (reader->Read(&piece)) {
-    sunk = sink(piece.data());
-    if (!sunk.ok()) {
-      ctx.TryCancel();
-      while (reader->Read(&piece)) {
+  v1::MapService::Stub* stub = StubForMap(request.name());
+  for (int hops = 0;;) {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(absl::ToChronoTime(absl::Now() + options_.transfer_timeout));
+    std::unique_ptr<grpc::ClientReader<v1::ExportChunk>> reader = stub->ExportMap(&ctx, request);
+    v1::ExportChunk piece;
+    absl::Status sunk;
+    bool any = false;
+    while (reader->Read(&piece)) {
+      any = true;
+      sunk = sink(piece.data());
+      if (!sunk.ok()) {
+        ctx.TryCancel();
+        while (reader->Read(&piece)) {
+        }
+        break;
       }
-      break;
     }
+    const grpc::Status s = reader->Finish();
+    if (!sunk.ok()) return sunk;
+    // A redirect comes before the first piece.
+    if (s.ok() || any || (stub = Follow(s, &hops)) == nullptr) return FromGrpcStatus(s);
   }
-  const grpc::Status s = reader->Finish();
-  if (!sunk.ok()) return sunk;
-  return FromGrpcStatus(s);
 }
 
 absl::StatusOr<v1::Map> MapClient::ImportMap(

@@ -8,6 +8,12 @@
 //
 // Errors come back as absl::Status with the server's code and message.
 //
+// Fleets (several skimapd nodes on one store): a node answers a request for a map that
+// another node serves with UNAVAILABLE and a MapRedirect in the status details; the unary
+// calls, StreamVoxels and ExportMap follow it to the owner (up to max_redirects hops) and
+// remember each map's owner for the next calls. StreamFrames acks carry the redirect
+// (FrameAck.redirect): StreamTo() gives a client for that address.
+//
 // Thread safety: MapClient is thread safe (one channel, any number of concurrent calls).
 // A FrameStream is used by one thread at a time.
 #ifndef CLIENT_MAP_CLIENT_H_
@@ -16,7 +22,10 @@
 #include <grpcpp/grpcpp.h>
 
 #include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +33,7 @@
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "client/frame_stream.h"
+#include "skimap/v1/fleet.grpc.pb.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
 namespace skimap::client {
@@ -34,6 +44,7 @@ class MapClient {
     int max_message_bytes = 80 << 20;                     // match skimapd's --max_message_mb
     absl::Duration timeout = absl::Seconds(60);           // deadline of each unary call
     absl::Duration transfer_timeout = absl::Minutes(30);  // ExportMap / ImportMap calls
+    int max_redirects = 3;  // fleet redirects followed per call; 0 = report them
   };
   // Creates a channel to `target` (host:port); does not wait for the server.
   static std::unique_ptr<MapClient> Connect(const std::string& target, const Options& options);
@@ -52,8 +63,10 @@ class MapClient {
 
   absl::StatusOr<v1::FrameAck> IntegrateFrame(const v1::Frame& frame);
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePoses(const v1::UpdatePosesRequest& request);
-  // Opens a StreamFrames call.
-  std::unique_ptr<FrameStream> OpenFrameStream(const FrameStream::Options& options);
+  // Opens a StreamFrames call, to the node that served map `map` ("maps/ID") last when
+  // known (a fleet), else to this client's target.
+  std::unique_ptr<FrameStream> OpenFrameStream(const FrameStream::Options& options,
+                                               const std::string& map = "");
 
   absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(const v1::GetOccupancyGridRequest& r);
   absl::StatusOr<v1::HeightMap> GetHeightMap(const v1::GetHeightMapRequest& request);
@@ -73,18 +86,42 @@ class MapClient {
   absl::StatusOr<v1::Map> ImportMap(const std::string& map_id,
                                     const std::function<absl::StatusOr<std::string>()>& source);
 
+  // FleetService.ListNodes of the node this client connects to. FailedPrecondition from
+  // a server that is not a fleet node.
+  absl::StatusOr<v1::ListNodesResponse> ListNodes();
+
   v1::MapService::Stub& stub() { return *stub_; }
+  const std::string& target() const { return target_; }
 
  private:
-  MapClient(std::shared_ptr<grpc::Channel> channel, const Options& options);
+  MapClient(const std::string& target, const Options& options);
   void SetDeadline(grpc::ClientContext* ctx) const;
+  // The stub for the node that served map `name` last (this client's target if none).
+  v1::MapService::Stub* StubForMap(const std::string& name);
+  // Follows `status`'s redirect, if any, within the hop budget: the owner's stub (and the
+  // map remembered there), or null to return the status.
+  v1::MapService::Stub* Follow(const grpc::Status& status, int* hops);
+  // A unary call on the owner of map `name`, following redirects.
+  template <class Request, class Response>
+  absl::StatusOr<Response> Call(grpc::Status (v1::MapService::Stub::*method)(grpc::ClientContext*,
+                                                                             const Request&,
+                                                                             Response*),
+                                const std::string& name, const Request& request);
 
   const Options options_;
+  const std::string target_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::MapService::Stub> stub_;
+  std::mutex mu_;                                                       // guards the two maps below
+  std::map<std::string, std::unique_ptr<v1::MapService::Stub>> stubs_;  // by address
+  std::map<std::string, v1::MapService::Stub*> owners_;                 // by map name
 };
 
-// grpc::Status -> absl::Status (same codes).
+// The fleet redirect an error carries (from a unary call's status details), if any.
+std::optional<v1::MapRedirect> RedirectOf(const absl::Status& status);
+
+// grpc::Status -> absl::Status (same codes; a fleet redirect in the details is kept as the
+// status's payload, see RedirectOf).
 absl::Status FromGrpcStatus(const grpc::Status& status);
 
 // An insecure channel to `target` (host:port) allowing messages up to `max_message_bytes`

@@ -11,6 +11,7 @@
 //     (client/transfer_command.h)
 //   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | build | classifier
 //     (client/objects_command.h)
+//   skimap nodes                               a fleet's nodes and the maps each serves
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -58,7 +59,23 @@ void PrintMap(const v1::Map& m) {
                 s.bounds().min().y(), s.bounds().min().z(), s.bounds().max().x(),
                 s.bounds().max().y(), s.bounds().max().z());
   }
+  if (!m.owner_node().empty()) {
+    std::printf("  owner %s (%s)", m.owner_node().c_str(), m.owner_address().c_str());
+  }
   std::printf("\n");
+}
+
+// `skimap nodes`: one line per node of the fleet, then its maps.
+int Nodes(MapClient& client) {
+  absl::StatusOr<v1::ListNodesResponse> nodes = client.ListNodes();
+  if (!nodes.ok()) return Fail(nodes.status());
+  for (const v1::Node& n : nodes->nodes()) {
+    std::printf("%s  %s  %s%s  %d maps\n", n.id().c_str(), n.address().c_str(),
+                n.live() ? "live" : "silent", n.answering() ? " (answered)" : "", n.maps_size());
+    for (const std::string& m : n.maps()) std::printf("  %s\n", m.c_str());
+  }
+  if (nodes->nodes_size() == 0) std::printf("(no nodes)\n");
+  return 0;
 }
 
 int Maps(MapClient& client, const std::vector<std::string>& args) {
@@ -182,7 +199,8 @@ int main(int argc, char** argv) {
       "       skimap export --map=ID -o FILE [--with-journal]\n"
       "       skimap import FILE [--as=ID]\n"
       "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
-      "[--detector=ORB]|build|classifier");
+      "[--detector=ORB]|build|classifier\n"
+      "       skimap nodes");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -198,6 +216,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<MapClient> client = MapClient::Connect(absl::GetFlag(FLAGS_server));
   const std::string& command = args[1];
   if (command == "maps") return Maps(*client, args);
+  if (command == "nodes") return Nodes(*client);
   if (command == "import") return Import(*client, args);
   const bool needs_map = command == "stream" || command == "grid" || command == "heightmap" ||
                          command == "voxels" || command == "export";

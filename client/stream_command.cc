@@ -3,7 +3,9 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <thread>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "client/dataset_frames.h"
@@ -42,47 +44,85 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
   std::atomic<size_t> acked{0};
   const Clock::time_point start = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
-  FrameStream::Options stream_options;
-  stream_options.window = options.window;
-  stream_options.on_ack = [&](const v1::FrameAck&) {
-    const size_t n = ++acked;
-    if (!options.quiet) Progress(n, total, elapsed());
-  };
-  std::unique_ptr<FrameStream> stream = client.OpenFrameStream(stream_options);
   absl::Status first_error;
-  for (size_t i = 0; i < total; ++i) {
-    if (options.fps > 0) {
-      std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
-                                                std::chrono::duration<double>(i / options.fps)));
+  // acks[i]: frame i's ack. A fleet node that does not serve the map answers UNAVAILABLE
+  // with a redirect: the frames from the first redirected one on go to the owner.
+  std::vector<std::optional<v1::FrameAck>> acks(total);
+  std::unique_ptr<MapClient> owner;  // the node a redirect named
+  MapClient* target = &client;
+  size_t next = 0;
+  for (int hop = 0; next < total; ++hop) {
+    std::atomic<bool> redirected{false};
+    FrameStream::Options stream_options;
+    stream_options.window = options.window;
+    stream_options.on_ack = [&](const v1::FrameAck& ack) {
+      if (ack.has_redirect()) {
+        redirected = true;
+        return;
+      }
+      const size_t n = ++acked;
+      if (!options.quiet) Progress(n, total, elapsed());
+    };
+    std::unique_ptr<FrameStream> stream = target->OpenFrameStream(stream_options, map_name);
+    size_t sent = next;
+    for (; sent < total && !redirected; ++sent) {
+      if (options.fps > 0) {
+        std::this_thread::sleep_until(start +
+                                      std::chrono::duration_cast<Clock::duration>(
+                                          std::chrono::duration<double>(sent / options.fps)));
+      }
+      absl::StatusOr<v1::Frame> frame =
+          ToApiFrame((*frames)[sent], map_name, first_sequence + sent);
+      if (!frame.ok()) {
+        if (first_error.ok()) first_error = frame.status();
+        continue;
+      }
+      if (absl::Status s = stream->Send(*frame); !s.ok()) break;  // Finish reports why
     }
-    absl::StatusOr<v1::Frame> frame = ToApiFrame((*frames)[i], map_name, first_sequence + i);
-    if (!frame.ok()) {
-      if (first_error.ok()) first_error = frame.status();
-      continue;
+    absl::StatusOr<std::vector<v1::FrameAck>> done = stream->Finish();
+    if (!done.ok()) return done.status();
+    std::optional<v1::MapRedirect> redirect;
+    size_t resend = sent;
+    for (const v1::FrameAck& ack : *done) {
+      const size_t i = ack.sequence() - first_sequence;
+      if (i >= total) continue;
+      if (ack.has_redirect()) {
+        redirect = ack.redirect();
+        resend = std::min(resend, i);
+      } else {
+        acks[i] = ack;
+      }
     }
-    if (absl::Status s = stream->Send(*frame); !s.ok()) break;  // Finish reports why
+    next = resend;
+    if (!redirect.has_value()) {
+      next = sent;
+      break;
+    }
+    if (hop >= 3) return absl::UnavailableError("stream: more than 3 redirects");
+    owner = MapClient::Connect(redirect->address());
+    target = owner.get();
   }
-  absl::StatusOr<std::vector<v1::FrameAck>> acks = stream->Finish();
   if (!options.quiet) std::fprintf(stderr, "\n");
-  if (!acks.ok()) return acks.status();
   const double seconds = elapsed();
-  size_t ok = 0;
+  size_t ok = 0, received = 0;
   double integration_ms = 0;
-  for (const v1::FrameAck& ack : *acks) {
-    if (ack.code() == 0) {
+  for (const std::optional<v1::FrameAck>& ack : acks) {
+    if (!ack.has_value()) continue;
+    ++received;
+    if (ack->code() == 0) {
       ++ok;
       integration_ms +=
-          ack.integration_time().seconds() * 1e3 + ack.integration_time().nanos() / 1e6;
+          ack->integration_time().seconds() * 1e3 + ack->integration_time().nanos() / 1e6;
     } else if (first_error.ok()) {
-      first_error = absl::Status(static_cast<absl::StatusCode>(ack.code()),
-                                 absl::StrCat("frame ", ack.sequence(), ": ", ack.message()));
+      first_error = absl::Status(static_cast<absl::StatusCode>(ack->code()),
+                                 absl::StrCat("frame ", ack->sequence(), ": ", ack->message()));
     }
   }
   std::printf(
       "streamed %zu frames to %s in %.2f s (%.1f frames/s): %zu ok, %zu failed, "
       "mean integration %.1f ms\n",
-      acks->size(), map_name.c_str(), seconds, seconds > 0 ? acks->size() / seconds : 0, ok,
-      acks->size() - ok, ok ? integration_ms / ok : 0.0);
+      received, map_name.c_str(), seconds, seconds > 0 ? received / seconds : 0, ok, received - ok,
+      ok ? integration_ms / ok : 0.0);
   map = client.GetMap(map_name);
   if (map.ok()) {
     std::printf("map %s: %llu voxels, %llu frames, %.1f MiB\n", map_name.c_str(),

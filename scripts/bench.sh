@@ -28,7 +28,7 @@ for a in "$@"; do
   esac
 done
 ((deps)) && bash scripts/deps.sh --bench
-bash scripts/build.sh bench skimap_bench storage_bench
+bash scripts/build.sh bench skimap_bench storage_bench fleet_bench
 bin=build/bench/bench/skimap_bench
 out=build/bench/results
 mkdir -p "$out"
@@ -42,6 +42,13 @@ declare -A filter=(
 json_groups=0 storage=0
 for g in ${SKIMAP_BENCH_GROUPS:-insert radius queries memory storage}; do
   echo "bench: $g (load: $(cut -d' ' -f1-3 /proc/loadavg))" >&2
+  if [[ $g == fleet ]]; then
+    # Opt-in (SKIMAP_BENCH_GROUPS=fleet, ~4 min): skimapd nodes on PostgreSQL vs SQLite and
+    # failover over 20 kills; tables into $out/fleet.md (docs/benchmarks.md, "Fleet").
+    build/bench/bench/fleet_bench >"$out/fleet.md"
+    cat "$out/fleet.md"
+    continue
+  fi
   if [[ $g == storage ]]; then
     # shellcheck disable=SC2086  # flags split on purpose
     build/bench/bench/storage_bench ${SKIMAP_BENCH_STORAGE_ARGS:-} >"$out/storage.md"

@@ -6,7 +6,13 @@
 //           [--memory_budget_mb=0] [--snapshot_interval_s=10] [--journal_retain_mb=1024]
 //           [--max_maps=1000] [--max_map_voxels=0] [--max_frame_pixels=0]
 //           [--max_streams_per_client=16]
+//           [--store=postgresql://user@host:port/db [--advertise_address=HOST:PORT]
+//            [--lease_ttl_ms=6000]]
 //
+// With --store=postgresql://... the server is one node of a fleet sharing that store
+// (docs/operations.md): it serves the maps whose lease it holds, takes the lease of a map
+// without a live owner on the first request for it, and redirects requests for maps other
+// nodes own (FleetService lists the nodes).
 // Serves skimap.v1.MapService, skimap.v1.ObjectService (its object database is
 // DATA_DIR/objects.sqlite, loaded at start), grpc.health.v1.Health and server reflection.
 // Stops cleanly on SIGINT or SIGTERM: no new calls, open calls get a 2 s grace period,
@@ -22,6 +28,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "server/fleet/fleet.h"
 #include "server/grpc/grpc_server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
@@ -34,6 +41,15 @@ ABSL_FLAG(std::string, dataset_root, "",
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
           "directory for server data (created if missing): maps.sqlite holds every map (frame "
           "journal and snapshots, reloaded at start), objects.sqlite the object database");
+ABSL_FLAG(std::string, store, "",
+          "where maps persist: empty for DATA_DIR/maps.sqlite (SQLite), or a PostgreSQL "
+          "connection URI (postgresql://user@host:port/db) or libpq connection string");
+ABSL_FLAG(std::string, advertise_address, "",
+          "with a PostgreSQL --store: where other nodes and clients reach this node "
+          "(host:port); default --address");
+ABSL_FLAG(int, lease_ttl_ms, 6000,
+          "with a PostgreSQL --store: map leases and heartbeats expire after this long without "
+          "renewal (renewed every third of it); a dead node's maps move after about this long");
 ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
@@ -85,7 +101,7 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_memory_budget_mb) < 0 || absl::GetFlag(FLAGS_snapshot_interval_s) < 1 ||
       absl::GetFlag(FLAGS_journal_retain_mb) < 0 || absl::GetFlag(FLAGS_max_maps) < 1 ||
       absl::GetFlag(FLAGS_max_map_voxels) < 0 || absl::GetFlag(FLAGS_max_frame_pixels) < 0 ||
-      absl::GetFlag(FLAGS_max_streams_per_client) < 0) {
+      absl::GetFlag(FLAGS_max_streams_per_client) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100) {
     std::fprintf(stderr, "skimapd: flag out of range (see --help)\n");
     return 2;
   }
@@ -108,6 +124,22 @@ int main(int argc, char** argv) {
   options.service.max_frame_pixels = uint64_t(absl::GetFlag(FLAGS_max_frame_pixels));
   options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
   options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();
+  std::unique_ptr<skimap::server::Fleet> fleet;  // outlives the server
+  if (const std::string url = absl::GetFlag(FLAGS_store); !url.empty()) {
+    const std::string advertise = absl::GetFlag(FLAGS_advertise_address);
+    absl::StatusOr<std::unique_ptr<skimap::server::Fleet>> opened = skimap::server::Fleet::Open(
+        url, {.address = advertise.empty() ? options.address : advertise,
+              .lease_ttl = absl::Milliseconds(absl::GetFlag(FLAGS_lease_ttl_ms))});
+    if (!opened.ok()) {
+      // libpq's messages name host and port, never the password.
+      std::fprintf(stderr, "skimapd: --store: %s\n", opened.status().ToString().c_str());
+      return 1;
+    }
+    fleet = *std::move(opened);
+    options.map_store = &fleet->store();
+    options.service.ownership = &fleet->node();
+    options.more_services.push_back(&fleet->service());
+  }
   options.objects.threads = std::max(1, absl::GetFlag(FLAGS_worker_threads));
   absl::StatusOr<std::unique_ptr<skimap::server::GrpcServer>> server =
       skimap::server::GrpcServer::Start(options);
@@ -115,8 +147,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "skimapd: %s\n", server.status().ToString().c_str());
     return 1;
   }
-  std::printf("skimapd: listening on port %d (address %s), data dir %s\n", (*server)->port(),
-              options.address.c_str(), data_dir.c_str());
+  std::printf("skimapd: listening on port %d (address %s), data dir %s%s%s\n", (*server)->port(),
+              options.address.c_str(), data_dir.c_str(), fleet ? ", fleet node " : "",
+              fleet ? fleet->node().node_id().c_str() : "");
   std::fflush(stdout);
 
   int signal_number = 0;
@@ -124,7 +157,12 @@ int main(int argc, char** argv) {
   std::printf("skimapd: %s, shutting down\n", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
   std::fflush(stdout);
   (*server)->Shutdown();
-  server->reset();
+  server->reset();  // the last snapshots, under the leases
+  if (fleet != nullptr) {
+    if (absl::Status s = fleet->node().Leave(); !s.ok()) {
+      std::fprintf(stderr, "skimapd: leaving the fleet: %s\n", s.ToString().c_str());
+    }
+  }
   std::printf("skimapd: stopped\n");
   return 0;
 }

@@ -1,11 +1,14 @@
 #include "server/work_queue.h"
 
+#include <algorithm>
 #include <utility>
 
 namespace skimap::server {
 
 WorkQueue::WorkQueue(const Options& options)
-    : capacity_(options.capacity < 1 ? 1 : options.capacity), thread_([this] { Loop(); }) {}
+    : capacity_(options.capacity < 1 ? 1 : options.capacity) {
+  for (int i = 0; i < std::max(1, options.threads); ++i) threads_.emplace_back([this] { Loop(); });
+}
 
 WorkQueue::~WorkQueue() {
   {
@@ -13,7 +16,7 @@ WorkQueue::~WorkQueue() {
     stopping_ = true;
   }
   cv_.SignalAll();
-  thread_.join();
+  for (std::thread& t : threads_) t.join();
 }
 
 bool WorkQueue::TrySubmit(std::function<void()> task) {

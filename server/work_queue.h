@@ -1,4 +1,7 @@
-// WorkQueue: one worker thread running tasks in submission order from a bounded queue.
+// WorkQueue: worker threads running tasks from a bounded queue, started in submission
+// order. With one thread (the default) tasks run one at a time, in order: a map's writes.
+// With more, up to `threads` run at once: the gRPC adapter's blocking steps (export,
+// import), kept off gRPC's callback threads.
 //
 //   WorkQueue queue({.capacity = 64});
 //   if (!queue.TrySubmit([] { ... })) { /* full: tell the client RESOURCE_EXHAUSTED */ }
@@ -17,6 +20,7 @@
 #include <future>
 #include <memory>
 #include <thread>
+#include <vector>
 
 #include "skimap/mutex.h"
 
@@ -26,6 +30,7 @@ class WorkQueue {
  public:
   struct Options {
     size_t capacity = 64;  // queued (not yet running) tasks, >= 1
+    int threads = 1;       // worker threads, >= 1
   };
   explicit WorkQueue(const Options& options);
   ~WorkQueue();
@@ -37,8 +42,8 @@ class WorkQueue {
   // Queues `task` past the capacity (the server's own bounded work: snapshot captures,
   // journal replay); false only while shutting down.
   [[nodiscard]] bool Submit(std::function<void()> task);
-  // Runs fn() on the worker after the tasks queued before it and returns its result
-  // (REQUIRES: not called from the worker; the queue is not shutting down).
+  // Runs fn() on a worker after the tasks queued before it started and returns its result
+  // (REQUIRES: not called from a worker; the queue is not shutting down).
   template <class Fn>
   auto Run(Fn&& fn) -> decltype(fn());
   // Tasks queued and not yet started.
@@ -53,7 +58,7 @@ class WorkQueue {
   CondVar cv_;
   std::deque<std::function<void()>> tasks_ ABSL_GUARDED_BY(mu_);
   bool stopping_ ABSL_GUARDED_BY(mu_) = false;
-  std::thread thread_;
+  std::vector<std::thread> threads_;
 };
 
 template <class Fn>

@@ -72,6 +72,19 @@ Mesh MakeBox(const Eigen::Vector3f& size, Texture tex, float uv_tiles) {
   return m;
 }
 
+Mesh MakePrintedBox(const Eigen::Vector3f& size, Texture tex) {
+  Mesh m = MakeBox(size, std::move(tex), 1);
+  // AddQuad gave every face uv (0,1),(1,1),(1,0),(0,0); squeeze face f into atlas cell f.
+  for (size_t face = 0; face < 6; ++face) {
+    const float u0 = static_cast<float>(face % 3) / 3, v0 = static_cast<float>(face / 3) / 2;
+    for (size_t k = 0; k < 4; ++k) {
+      Eigen::Vector2f& uv = m.uvs[face * 4 + k];
+      uv = {u0 + uv.x() / 3, v0 + uv.y() / 2};
+    }
+  }
+  return m;
+}
+
 Mesh MakeFrustum(float r0, float r1, float z0, float z1, int segments, Texture side, Texture cap) {
   Mesh m;
   m.textures.push_back(std::move(side));

@@ -46,6 +46,12 @@ struct Mesh {
 // Box of extent `size` centred at the origin; each face shows `uv_tiles` copies of `tex`.
 Mesh MakeBox(const Eigen::Vector3f& size, Texture tex, float uv_tiles = 1);
 
+// A printed box (a package): each of the six faces shows a different part of `tex` (the
+// cells of a 3 x 2 grid over it), so that no two faces look alike, as on real packaging.
+// (MakeBox's faces all show the same picture: a box that looks the same from front and
+// back, whose orientation no view can tell.)
+Mesh MakePrintedBox(const Eigen::Vector3f& size, Texture tex);
+
 // Closed frustum (cylinder when r0 == r1) around the z axis from z0 to z1 with `segments`
 // sides. The side wraps `side` once around; caps use `cap` (nullptr: no cap).
 Mesh MakeFrustum(float r0, float r1, float z0, float z1, int segments, Texture side, Texture cap);

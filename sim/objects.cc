@@ -2,7 +2,9 @@
 #include "sim/objects.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -27,10 +29,10 @@ Mesh Cyl(float r, float h, Texture side, Texture cap, int seg = 24) {
   return MakeFrustum(r, r, 0, h, seg, std::move(side), std::move(cap));
 }
 
-// A box standing on z = 0.
+// A printed box (every face different, as on real packaging) standing on z = 0.
 Mesh BoxOnFloor(Vector3f size, Texture t) {
   Mesh m;
-  m.Append(MakeBox(size, std::move(t)), At(0, 0, size.z() / 2));
+  m.Append(MakePrintedBox(size, std::move(t)), At(0, 0, size.z() / 2));
   return m;
 }
 
@@ -72,7 +74,7 @@ Mesh Design(int index, const Texture& t, const Texture& alt) {
     case 9:  // desk lamp-like composite: base, pole, head
       m = BoxOnFloor({0.12f, 0.12f, 0.025f}, alt);
       m.Append(Cyl(0.012f, 0.18f, grey, grey, 12), At(0, 0, 0.025f));
-      m.Append(MakeBox({0.14f, 0.07f, 0.06f}, t), At(0.03f, 0, 0.235f));
+      m.Append(MakePrintedBox({0.14f, 0.07f, 0.06f}, t), At(0.03f, 0, 0.235f));
       return m;
     case 10:  // paper cup (tapered)
       return MakeFrustum(0.03f, 0.042f, 0, 0.095f, 24, t, dark);
@@ -102,7 +104,8 @@ absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int ma
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     std::string ext = e.path().extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-    if (e.is_regular_file() && (ext == ".jpg" || ext == ".jpeg" || ext == ".png")) {
+    if (e.is_regular_file() &&
+        (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".webp")) {
       files.push_back(e.path().string());
     }
   }
@@ -126,14 +129,75 @@ absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int ma
   return out;
 }
 
+std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
+  // Detail: ORB keypoints whose descriptor has no near twin (Hamming > 50) elsewhere in the
+  // same picture, per pixel: a repeated pattern has many keypoints but few distinct ones.
+  cv::Ptr<cv::ORB> orb = cv::ORB::create(500);
+  std::vector<std::pair<double, size_t>> score;
+  std::vector<cv::Mat> thumbs;
+  std::vector<double> colourful;
+  std::vector<int> keypoint_count;
+  for (size_t i = 0; i < textures.size(); ++i) {
+    cv::Mat gray;
+    cv::cvtColor(*textures[i], gray, cv::COLOR_BGR2GRAY);
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat d;
+    orb->detectAndCompute(gray, cv::noArray(), keypoints, d);
+    int distinct = 0;
+    for (int a = 0; a < d.rows; ++a) {
+      double nearest = 256;
+      for (int b = 0; b < d.rows; ++b) {
+        if (a != b) nearest = std::min(nearest, cv::norm(d.row(a), d.row(b), cv::NORM_HAMMING));
+      }
+      distinct += nearest > 50;
+    }
+    score.push_back({static_cast<double>(distinct) / gray.total(), i});
+    keypoint_count.push_back(static_cast<int>(keypoints.size()));
+    // Colourfulness (Hasler and Suesstrunk 2003): printed packaging is colourful.
+    cv::Mat f;
+    textures[i]->convertTo(f, CV_32F);
+    std::vector<cv::Mat> bgr;
+    cv::split(f, bgr);
+    cv::Scalar m_rg, s_rg, m_yb, s_yb;
+    cv::meanStdDev(bgr[2] - bgr[1], m_rg, s_rg);
+    cv::meanStdDev(0.5 * (bgr[2] + bgr[1]) - bgr[0], m_yb, s_yb);
+    colourful.push_back(std::hypot(s_rg[0], s_yb[0]) + 0.3 * std::hypot(m_rg[0], m_yb[0]));
+    cv::Mat t;
+    cv::resize(gray, t, cv::Size(16, 16), 0, 0, cv::INTER_AREA);
+    t.convertTo(t, CV_32F);
+    cv::Scalar mean, sd;
+    cv::meanStdDev(t, mean, sd);
+    thumbs.push_back((t - mean[0]) / (sd[0] + 1e-6));
+  }
+  std::stable_sort(score.begin(), score.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  // Near twins (stereo pairs, frames of one sequence), dull pictures (colourfulness under
+  // 40: a green circuit board, grey facades) and blurred or plain ones (ORB finds fewer
+  // than 300 of its 500 keypoints) go to the end: objects must differ and look like
+  // packaging.
+  std::vector<size_t> out, twins;
+  for (const auto& [s, i] : score) {
+    const bool twin = std::any_of(out.begin(), out.end(), [&](size_t k) {
+      return thumbs[i].dot(thumbs[k]) / thumbs[i].total() > 0.6;
+    });
+    (twin || colourful[i] < 40 || keypoint_count[i] < 300 ? twins : out).push_back(i);
+  }
+  out.insert(out.end(), twins.begin(), twins.end());
+  return out;
+}
+
 std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count) {
   std::vector<ObjectModel> out;
   const size_t n = textures.size();
+  const std::vector<size_t> rank = RankByDetail(textures);
   for (int i = 0; i < count && i < kNumObjectDesigns; ++i) {
     ObjectModel o;
     o.obj_id = i + 1;
     o.name = kNames[i];
-    o.mesh = Design(i, textures[i % n], Darker(textures[(i + 5) % n], 0.8));
+    // Secondary parts (handles, caps, lids) take pictures after every object's own, so that
+    // no object carries another's print.
+    o.mesh =
+        Design(i, textures[rank[i % n]], Darker(textures[rank[(kNumObjectDesigns + i) % n]], 0.8));
     CentreMesh(o.mesh);
     out.push_back(std::move(o));
   }
@@ -143,8 +207,9 @@ std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& texture
 std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int count) {
   std::vector<Mesh> out;
   const size_t n = textures.size();
+  const std::vector<size_t> rank = RankByDetail(textures);
   for (int i = 0; i < count; ++i) {
-    const Texture& t = textures[n - 1 - (i % n)];
+    const Texture& t = textures[rank[n - 1 - (i % n)]];
     Mesh m;
     switch (i % 4) {
       case 0:  // vase
@@ -155,7 +220,8 @@ std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int coun
         break;
       case 2:  // flower pot with plant block
         m = MakeFrustum(0.05f, 0.07f, 0, 0.12f, 20, FlatTexture(60, 90, 160), nullptr);
-        m.Append(MakeBox({0.10f, 0.10f, 0.12f}, t), Affine3f(Eigen::Translation3f(0, 0, 0.18f)));
+        m.Append(MakePrintedBox({0.10f, 0.10f, 0.12f}, t),
+                 Affine3f(Eigen::Translation3f(0, 0, 0.18f)));
         break;
       default:  // stack of two boxes
         m = BoxOnFloor({0.12f, 0.12f, 0.08f}, t);

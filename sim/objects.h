@@ -17,7 +17,7 @@ namespace skimap::sim {
 // Debian's opencv-doc photographs, the default texture source.
 inline constexpr char kDefaultTextureDir[] = "/usr/share/doc/opencv-doc/examples/data";
 
-// Loads every .jpg/.jpeg/.png in `dir` (sorted by name; not recursive) that is a colour-
+// Loads every .jpg/.jpeg/.png/.webp in `dir` (sorted by name; not recursive) that is a colour-
 // able image of at least 64x64 px, scaled so the longer side is at most max_side px.
 // kNotFound if the folder is missing or holds no usable image.
 absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side = 256);
@@ -33,12 +33,20 @@ struct ObjectModel {
 // The number of distinct database object designs (ids 1..kNumObjectDesigns).
 inline constexpr int kNumObjectDesigns = 12;
 
-// Makes database objects 1..count (count <= kNumObjectDesigns), textures assigned in order
-// (cycling if there are fewer textures than objects). REQUIRES: textures non-empty.
+// Texture indices by detail, most detailed first (distinct ORB keypoints per pixel); near
+// twins of a picture ranked before them (thumbnails correlating above 0.6), dull pictures
+// (colourfulness under 40) and blurred or plain ones (under 300 ORB keypoints) moved last.
+std::vector<size_t> RankByDetail(const std::vector<Texture>& textures);
+
+// Makes database objects 1..count (count <= kNumObjectDesigns). Like printed packaging,
+// they get the most detailed photographs (RankByDetail order, cycling if there are fewer
+// textures than objects): a logo on a plain ground gives a recogniser nothing to work
+// with, on any object. REQUIRES: textures non-empty.
 std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count);
 
 // Makes `count` distractor meshes (origin at bbox centre), textured from the end of the
-// texture list so they look unlike the database objects. REQUIRES: textures non-empty.
+// RankByDetail order, so they look unlike the database objects (which take its start).
+// REQUIRES: textures non-empty.
 std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int count);
 
 // Moves the mesh so the centre of its bounding box is at the origin.

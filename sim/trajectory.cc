@@ -1,6 +1,7 @@
 // Camera trajectories. See trajectory.h for the contract.
 #include "sim/trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -42,8 +43,9 @@ absl::StatusOr<TrajectoryKind> ParseTrajectoryKind(const std::string& name) {
   if (name == "orbit") return TrajectoryKind::kOrbit;
   if (name == "sweep") return TrajectoryKind::kSweep;
   if (name == "robot") return TrajectoryKind::kRobot;
+  if (name == "tour") return TrajectoryKind::kTour;
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown trajectory \"", name, "\" (orbit, sweep, robot)"));
+      absl::StrCat("unknown trajectory \"", name, "\" (orbit, sweep, robot, tour)"));
 }
 
 const char* TrajectoryKindName(TrajectoryKind kind) {
@@ -52,6 +54,8 @@ const char* TrajectoryKindName(TrajectoryKind kind) {
       return "orbit";
     case TrajectoryKind::kSweep:
       return "sweep";
+    case TrajectoryKind::kTour:
+      return "tour";
     default:
       return "robot";
   }
@@ -68,6 +72,52 @@ Eigen::Isometry3f LookAt(const Vector3f& eye, const Vector3f& target) {
   T.translation() = eye;
   return T;
 }
+
+namespace {
+
+// The tour (see the header): eye and look-at target of frame i of n.
+void TourAt(const SceneLayout& scene, int i, int n, Vector3f* eye, Vector3f* target) {
+  std::vector<Vector3f> objects;
+  for (const Placement& p : scene.objects) objects.push_back(p.T_wm.translation());
+  std::sort(objects.begin(), objects.end(), [](const Vector3f& a, const Vector3f& b) {
+    return std::atan2(a.y(), a.x()) < std::atan2(b.y(), b.x());
+  });
+  const float half_w = scene.spec.width / 2 - 0.3f, half_d = scene.spec.depth / 2 - 0.3f;
+  // The arc around object k at phase u in [0, 1].
+  auto view = [&](size_t k, float u, Vector3f* e, Vector3f* t) {
+    const Vector3f& obj = objects[k];
+    const float base = std::atan2(-obj.y(), -obj.x());  // towards the room centre
+    const float a = base + (u - 0.5f) * (50.f * kPi / 180.f);
+    *e = obj + Vector3f(0.95f * std::cos(a), 0.95f * std::sin(a), 0.45f);
+    e->x() = std::clamp(e->x(), -half_w, half_w);
+    e->y() = std::clamp(e->y(), -half_d, half_d);
+    *t = obj;
+  };
+  if (objects.empty()) {
+    *eye = Vector3f(-half_w, -half_d, 1.3f);
+    *target = Vector3f(0, 0, 0.8f);
+    return;
+  }
+  const float share = static_cast<float>(n) / objects.size();
+  const size_t k = std::min(objects.size() - 1, static_cast<size_t>(i / share));
+  const float f = (i - k * share) / share;  // 0..1 within object k's share
+  const bool forward = k % 2 == 0;          // arcs alternate direction
+  if (f < 0.6f || k + 1 == objects.size()) {
+    const float u = std::min(f / 0.6f, 1.0f);
+    view(k, forward ? u : 1 - u, eye, target);
+    return;
+  }
+  // Moving on: from the end of arc k to the start of arc k + 1 (smoothstep).
+  Vector3f e0, t0, e1, t1;
+  view(k, forward ? 1.f : 0.f, &e0, &t0);
+  view(k + 1, forward ? 1.f : 0.f, &e1, &t1);
+  float w = (f - 0.6f) / 0.4f;
+  w = w * w * (3 - 2 * w);
+  *eye = e0 + w * (e1 - e0);
+  *target = t0 + w * (t1 - t0);
+}
+
+}  // namespace
 
 std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
                                               const TrajectoryOptions& o) {
@@ -86,7 +136,11 @@ std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
     const float t = static_cast<float>(i / o.fps);
     const float s = static_cast<float>(o.speed) * t;  // path length so far
     Eigen::Isometry3f T;
-    if (kind == TrajectoryKind::kOrbit && table) {
+    if (kind == TrajectoryKind::kTour) {
+      Vector3f eye, target;
+      TourAt(scene, i, o.frames, &eye, &target);
+      T = LookAt(eye, target);
+    } else if (kind == TrajectoryKind::kOrbit && table) {
       const Vector2f c2 = (table->min + table->max) / 2;
       const Vector3f c(c2.x(), c2.y(), table->z + 0.05f);
       const float r = 1.3f, a = s / r - kPi / 2;

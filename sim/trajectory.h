@@ -17,9 +17,9 @@
 namespace skimap::sim {
 
 // Kinds of scene trajectory.
-enum class TrajectoryKind { kOrbit, kSweep, kRobot };
+enum class TrajectoryKind { kOrbit, kSweep, kRobot, kTour };
 
-// Parses "orbit", "sweep", "robot". kInvalidArgument otherwise.
+// Parses "orbit", "sweep", "robot", "tour". kInvalidArgument otherwise.
 absl::StatusOr<TrajectoryKind> ParseTrajectoryKind(const std::string& name);
 const char* TrajectoryKindName(TrajectoryKind kind);
 
@@ -40,7 +40,10 @@ Eigen::Isometry3f LookAt(const Eigen::Vector3f& eye, const Eigen::Vector3f& targ
 // Poses for every frame. Orbit: around the first table (radius 1.3 m, eye 0.7 m above the
 // top). Sweep: back and forth 1.1 m in front of the first shelf (orbit if there is none).
 // Robot: a loop 1 m from the walls at 1.35 m height, looking around (+-35 deg yaw, 20 deg
-// down).
+// down). Tour: a hand-held walk from database object to database object (in the order of
+// their bearing from the room centre), as someone scanning a room for objects does (SK17):
+// at each, 60 % of its share of the frames sweeping a 50-degree arc 0.95 m away (0.45 m
+// above it, on the room side), the rest moving on to the next; `speed` is not used.
 std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
                                               const TrajectoryOptions& options);
 

@@ -47,16 +47,20 @@ void HypothesesVoxel::Encode(Encoder& e) const {
     EncodePose(e, h.t, h.q);
     e.U32(h.object_id);
     e.F32(h.score);
+    e.U64(h.frame);
   }
 }
 
 bool HypothesesVoxel::Decode(Decoder& d, HypothesesVoxel* v) {
-  constexpr size_t kBytes = 9 * 4;
+  constexpr size_t kBytes = 9 * 4 + 8;
   uint32_t n;
   if (!d.U32(&n) || n > d.remaining() / kBytes) return false;
   std::vector<Hypothesis> items(n);
   for (Hypothesis& h : items) {
-    if (!DecodePose(d, &h.t, &h.q) || !d.U32(&h.object_id) || !d.F32(&h.score)) return false;
+    if (!DecodePose(d, &h.t, &h.q) || !d.U32(&h.object_id) || !d.F32(&h.score) ||
+        !d.U64(&h.frame)) {
+      return false;
+    }
   }
   v->items_ = std::move(items);
   return true;
@@ -91,20 +95,33 @@ void InstancesVoxel::Encode(Encoder& e) const {
     EncodePose(e, i.t, i.q);
     e.F32(i.score);
     e.U32(i.support);
+    e.U32(i.frames);
+    e.U64(i.first_frame);
+    e.U64(i.last_frame);
+    e.U64(static_cast<uint64_t>(i.first_time_us));
+    e.U64(static_cast<uint64_t>(i.last_time_us));
+    e.F32(i.spread_t);
+    e.F32(i.spread_r);
+    e.F32(i.fit);
   }
 }
 
 bool InstancesVoxel::Decode(Decoder& d, InstancesVoxel* v) {
-  constexpr size_t kBytes = 8 + 4 + 7 * 4 + 4 + 4;
+  constexpr size_t kBytes = 8 + 4 + 7 * 4 + 4 + 4 + 4 + 4 * 8 + 3 * 4;
   uint32_t n;
   if (!d.U32(&n) || n > d.remaining() / kBytes) return false;
   std::vector<Instance> items(n);
   for (size_t k = 0; k < items.size(); ++k) {
     Instance& i = items[k];
+    uint64_t first_time = 0, last_time = 0;
     if (!d.U64(&i.id) || !d.U32(&i.object_id) || !DecodePose(d, &i.t, &i.q) || !d.F32(&i.score) ||
-        !d.U32(&i.support)) {
+        !d.U32(&i.support) || !d.U32(&i.frames) || !d.U64(&i.first_frame) ||
+        !d.U64(&i.last_frame) || !d.U64(&first_time) || !d.U64(&last_time) || !d.F32(&i.spread_t) ||
+        !d.F32(&i.spread_r) || !d.F32(&i.fit)) {
       return false;
     }
+    i.first_time_us = static_cast<int64_t>(first_time);
+    i.last_time_us = static_cast<int64_t>(last_time);
     for (size_t j = 0; j < k; ++j) {
       if (items[j].id == i.id) return false;
     }

@@ -25,6 +25,7 @@ struct Hypothesis {
   std::array<float, 4> q{1, 0, 0, 0};  // w, x, y, z
   uint32_t object_id = 0;
   float score = 0;
+  uint64_t frame = 0;  // sequence of the frame whose recognition produced it
   friend bool operator==(const Hypothesis&, const Hypothesis&) = default;
 };
 
@@ -34,7 +35,13 @@ struct Instance {
   std::array<float, 3> t{};
   std::array<float, 4> q{1, 0, 0, 0};
   float score = 0;
-  uint32_t support = 0;  // number of hypotheses behind this estimate
+  uint32_t support = 0;                         // number of hypotheses behind this estimate
+  uint32_t frames = 0;                          // distinct frames those hypotheses came from
+  uint64_t first_frame = 0, last_frame = 0;     // sequences: created, last supported
+  int64_t first_time_us = 0, last_time_us = 0;  // those frames' timestamps (unix µs)
+  float spread_t = 0;  // RMS distance of the supporting hypotheses to t, metres
+  float spread_r = 0;  // RMS angle of their rotations to q, radians
+  float fit = 0;       // agreement with the map's surface and colour, 0..1
   friend bool operator==(const Instance&, const Instance&) = default;
 };
 

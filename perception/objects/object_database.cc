@@ -123,11 +123,35 @@ float ObjectDatabase::NearestCentroidDistance(uint32_t c, DescriptorRef d) const
 
 void ObjectDatabase::Classify(DescriptorRef d, std::vector<float>* features,
                               std::vector<Prediction>* out) const {
-  out->clear();
   features->resize(layout_.FeatureDims());
   ToFeatures(layout_, d, *features);
   thread_local std::vector<ClassScore> scores;
   forest_.Predict(features->data(), params_.top_n, &scores);
+  Verify(d, scores, out);
+}
+
+void ObjectDatabase::ClassifyMany(const DescriptorMatrix& descriptors,
+                                  std::vector<std::vector<Prediction>>* out) const {
+  const size_t n = descriptors.rows(), dims = layout_.FeatureDims();
+  thread_local std::vector<std::vector<ClassScore>> scores;
+  if (layout_.binary() && n > 0) {
+    // Rows are packed back to back (DescriptorMatrix): the forest reads the bits.
+    forest_.PredictManyBits(descriptors.Row(0).bits, dims / 8, n, params_.top_n, &scores);
+  } else {
+    thread_local std::vector<float> features;
+    features.resize(n * dims);
+    for (size_t i = 0; i < n; ++i) {
+      ToFeatures(layout_, descriptors.Row(i), std::span<float>(features.data() + i * dims, dims));
+    }
+    forest_.PredictMany(features.data(), n, params_.top_n, &scores);
+  }
+  out->resize(n);
+  for (size_t i = 0; i < n; ++i) Verify(descriptors.Row(i), scores[i], &(*out)[i]);
+}
+
+void ObjectDatabase::Verify(DescriptorRef d, const std::vector<ClassScore>& scores,
+                            std::vector<Prediction>* out) const {
+  out->clear();
   for (const ClassScore& s : scores) {
     if (!stack_.Valid(s.cls)) continue;
     Prediction p;

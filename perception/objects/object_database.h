@@ -85,6 +85,10 @@ class ObjectDatabase {
   // The forest's top params.top_n classes for descriptor d, each with its verification,
   // highest confidence first. `features` is scratch (resized as needed).
   void Classify(DescriptorRef d, std::vector<float>* features, std::vector<Prediction>* out) const;
+  // Classify for every row of `descriptors` at once (the forest's PredictMany): out[i] holds
+  // row i's candidates, as Classify gives them.
+  void ClassifyMany(const DescriptorMatrix& descriptors,
+                    std::vector<std::vector<Prediction>>* out) const;
   // The most confident verified candidate; false if none verifies.
   bool Recognize(DescriptorRef d, std::vector<float>* features, Prediction* out) const;
 
@@ -94,6 +98,10 @@ class ObjectDatabase {
   friend bool operator==(const ObjectDatabase&, const ObjectDatabase&) = default;
 
  private:
+  // The candidates `scores` of descriptor d as predictions, each verified.
+  void Verify(DescriptorRef d, const std::vector<ClassScore>& scores,
+              std::vector<Prediction>* out) const;
+
   ObjectDatabaseParams params_;
   DescriptorLayout layout_;
   std::vector<ObjectModel> objects_;

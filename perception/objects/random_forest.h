@@ -81,6 +81,17 @@ class RandomForest {
   // The top_n classes by confidence for one feature vector of dims() floats, highest
   // first (ties: smaller class). `out` is cleared first; scratch reuse avoids allocation.
   void Predict(const float* features, int top_n, std::vector<ClassScore>* out) const;
+  // Predict for n feature vectors (row i at features + i * dims()) at once: out[i] is
+  // Predict(row i). Trees are walked one at a time for every row, so a tree's upper levels
+  // stay in cache (several times faster than n Predict calls on a large forest).
+  void PredictMany(const float* features, size_t n, int top_n,
+                   std::vector<std::vector<ClassScore>>* out) const;
+  // PredictMany for binary descriptors packed 8 bits a byte (bit f of row i is
+  // (bits[i * row_bytes + f / 8] >> (f % 8)) & 1, as ToFeatures unpacks them), without
+  // unpacking: a split x[f] < t reads the bit (exact for thresholds in (0, 1], which is what
+  // training on 0/1 features yields). REQUIRES: dims() == 8 * row_bytes.
+  void PredictManyBits(const uint8_t* bits, size_t row_bytes, size_t n, int top_n,
+                       std::vector<std::vector<ClassScore>>* out) const;
 
   int dims() const { return dims_; }
   uint32_t num_classes() const { return num_classes_; }
@@ -110,6 +121,9 @@ class RandomForest {
   };
 
  private:
+  // Top-n classes of each of n rows from their leaves (leaf[i * trees + t]).
+  void MergeLeaves(const std::vector<uint32_t>& leaf, size_t n, int top_n,
+                   std::vector<std::vector<ClassScore>>* out) const;
   int dims_ = 0;
   uint32_t num_classes_ = 0;
   std::vector<uint32_t> roots_;  // node index of each tree's root

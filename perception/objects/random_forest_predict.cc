@@ -42,6 +42,82 @@ void RandomForest::Predict(const float* x, int top_n, std::vector<ClassScore>* o
   out->resize(keep);
 }
 
+namespace {
+
+// The leaf of every row in every tree, tree by tree (a tree's upper levels stay in cache):
+// leaf[i * trees + t]. `feature(i, f)` reads feature f of row i.
+template <class Feature>
+void WalkTrees(const std::vector<uint32_t>& roots, const std::vector<RandomForest::Node>& nodes,
+               size_t n, Feature feature, std::vector<uint32_t>* leaf) {
+  const size_t trees = roots.size();
+  leaf->resize(n * trees);
+  for (size_t t = 0; t < trees; ++t) {
+    for (size_t i = 0; i < n; ++i) {
+      uint32_t k = roots[t];
+      while (nodes[k].feature >= 0) {
+        const RandomForest::Node& nd = nodes[k];
+        k = feature(i, nd.feature) < nd.threshold ? nd.b : nd.a;
+      }
+      (*leaf)[i * trees + t] = k;
+    }
+  }
+}
+
+}  // namespace
+
+void RandomForest::MergeLeaves(const std::vector<uint32_t>& leaf, size_t n, int top_n,
+                               std::vector<std::vector<ClassScore>>* out) const {
+  out->resize(n);
+  for (std::vector<ClassScore>& o : *out) o.clear();
+  if (roots_.empty() || top_n <= 0) return;
+  const size_t trees = roots_.size();
+  thread_local std::vector<LeafEntry> hits;
+  const float inv_trees = 1.0f / static_cast<float>(trees);
+  auto better = [](const ClassScore& a, const ClassScore& b) {
+    return a.confidence != b.confidence ? a.confidence > b.confidence : a.cls < b.cls;
+  };
+  for (size_t i = 0; i < n; ++i) {
+    hits.clear();
+    for (size_t t = 0; t < trees; ++t) {
+      const Node& nd = nodes_[leaf[i * trees + t]];
+      hits.insert(hits.end(), leaves_.begin() + nd.a, leaves_.begin() + nd.a + nd.b);
+    }
+    std::sort(hits.begin(), hits.end(),
+              [](const LeafEntry& a, const LeafEntry& b) { return a.cls < b.cls; });
+    std::vector<ClassScore>& o = (*out)[i];
+    for (size_t h = 0; h < hits.size();) {
+      float sum = 0;
+      const uint32_t c = hits[h].cls;
+      for (; h < hits.size() && hits[h].cls == c; ++h) sum += hits[h].fraction;
+      o.push_back({c, sum * inv_trees});
+    }
+    const size_t keep = std::min<size_t>(o.size(), static_cast<size_t>(top_n));
+    std::partial_sort(o.begin(), o.begin() + keep, o.end(), better);
+    o.resize(keep);
+  }
+}
+
+void RandomForest::PredictMany(const float* features, size_t n, int top_n,
+                               std::vector<std::vector<ClassScore>>* out) const {
+  thread_local std::vector<uint32_t> leaf;
+  const size_t dims = static_cast<size_t>(dims_);
+  WalkTrees(
+      roots_, nodes_, n, [&](size_t i, int f) { return features[i * dims + f]; }, &leaf);
+  MergeLeaves(leaf, n, top_n, out);
+}
+
+void RandomForest::PredictManyBits(const uint8_t* bits, size_t row_bytes, size_t n, int top_n,
+                                   std::vector<std::vector<ClassScore>>* out) const {
+  thread_local std::vector<uint32_t> leaf;
+  WalkTrees(
+      roots_, nodes_, n,
+      [&](size_t i, int f) {
+        return static_cast<float>((bits[i * row_bytes + (f >> 3)] >> (f & 7)) & 1);
+      },
+      &leaf);
+  MergeLeaves(leaf, n, top_n, out);
+}
+
 size_t RandomForest::MemoryBytes() const {
   return nodes_.size() * sizeof(Node) + leaves_.size() * sizeof(LeafEntry) +
          roots_.size() * sizeof(uint32_t);

@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "server/fleet/redirect.h"
+
 namespace skimap::server {
 
 FrameStreamReactor::FrameStreamReactor(MapService* core, int max_in_flight,
@@ -39,6 +41,9 @@ void FrameStreamReactor::OnFrameDone(uint64_t sequence, absl::StatusOr<v1::Frame
     ack.set_sequence(sequence);
     ack.set_code(static_cast<int>(result.status().code()));
     ack.set_message(std::string(result.status().message()));
+    if (std::optional<v1::MapRedirect> r = RedirectOf(result.status())) {
+      *ack.mutable_redirect() = *std::move(r);
+    }
   }
   {
     WriterLock lock(&mu_);

@@ -36,13 +36,16 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
     service.store = s->store_.get();
   }
   service.max_reply_bytes = std::min<size_t>(service.max_reply_bytes, options.max_message_bytes);
-  s->core_ = std::make_unique<MapService>(service);
-  if (absl::Status recovered = s->core_->Recover(); !recovered.ok()) return recovered;
-  s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
+  // Objects first: maps with recognition take the classifier when they load.
   absl::StatusOr<std::unique_ptr<ObjectService>> objects = ObjectService::Create(options.objects);
   if (!objects.ok()) return objects.status();
   s->objects_ = *std::move(objects);
   s->grpc_objects_ = std::make_unique<GrpcObjectService>(s->objects_.get());
+  ObjectRegistry* registry = &s->objects_->registry();
+  service.classifier = [registry] { return registry->classifier(); };
+  s->core_ = std::make_unique<MapService>(service);
+  if (absl::Status recovered = s->core_->Recover(); !recovered.ok()) return recovered;
+  s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
   grpc::ServerBuilder builder;
   // gRPC sets SO_REUSEPORT by default: a second skimapd on the same port would start and
   // take half of the connections. Fail to start instead.
@@ -52,6 +55,7 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   builder.SetMaxSendMessageSize(options.max_message_bytes);
   builder.RegisterService(s->grpc_service_.get());
   builder.RegisterService(s->grpc_objects_.get());
+  for (grpc::Service* service : options.more_services) builder.RegisterService(service);
   s->server_ = builder.BuildAndStart();
   if (s->server_ == nullptr || s->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.address));

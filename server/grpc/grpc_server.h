@@ -15,6 +15,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "server/grpc/grpc_service.h"
@@ -48,6 +49,9 @@ class GrpcServer {
     // service.max_frame_bytes get RESOURCE_EXHAUSTED in their ack; messages above this
     // limit fail the call with RESOURCE_EXHAUSTED.
     int max_message_bytes = 80 << 20;
+    // Further gRPC services served on the same port (not owned; outlive the server), e.g.
+    // a fleet node's FleetService.
+    std::vector<grpc::Service*> more_services;
   };
 
   // Binds and starts serving. FailedPrecondition for an address beyond loopback without
@@ -69,10 +73,10 @@ class GrpcServer {
   GrpcServer() = default;
 
   std::unique_ptr<storage::MapStore> store_;  // before core_: outlives it
+  std::unique_ptr<ObjectService> objects_;    // before core_: maps ask it for the classifier
+  std::unique_ptr<GrpcObjectService> grpc_objects_;
   std::unique_ptr<MapService> core_;
   std::unique_ptr<GrpcMapService> grpc_service_;
-  std::unique_ptr<ObjectService> objects_;
-  std::unique_ptr<GrpcObjectService> grpc_objects_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
 };

@@ -5,6 +5,7 @@
 
 #include "server/grpc/frame_stream_reactor.h"
 #include "server/grpc/grpc_status.h"
+#include "server/grpc/instance_watch_reactor.h"
 #include "server/grpc/map_transfer_reactors.h"
 
 namespace skimap::server {
@@ -137,12 +138,29 @@ ServerUnaryReactor* GrpcMapService::RadiusSearch(CallbackServerContext* ctx,
 
 grpc::ServerWriteReactor<v1::ExportChunk>* GrpcMapService::ExportMap(
     CallbackServerContext* ctx, const v1::ExportMapRequest* request) {
-  return new ExportWriteReactor(core_, *request);
+  return new ExportWriteReactor(core_, &blocking_, *request);
 }
 
 grpc::ServerReadReactor<v1::ExportChunk>* GrpcMapService::ImportMap(CallbackServerContext* ctx,
                                                                     v1::Map* response) {
-  return new ImportReadReactor(core_, ctx, response);
+  return new ImportReadReactor(core_, &blocking_, ctx, response);
+}
+
+ServerUnaryReactor* GrpcMapService::ListInstances(CallbackServerContext* ctx,
+                                                  const v1::ListInstancesRequest* request,
+                                                  v1::ListInstancesResponse* response) {
+  return Reply(ctx, core_->ListInstances(*request), response);
+}
+
+ServerUnaryReactor* GrpcMapService::GetInstance(CallbackServerContext* ctx,
+                                                const v1::GetInstanceRequest* request,
+                                                v1::Instance* response) {
+  return Reply(ctx, core_->GetInstance(*request), response);
+}
+
+grpc::ServerWriteReactor<v1::InstanceEvent>* GrpcMapService::WatchInstances(
+    CallbackServerContext* ctx, const v1::WatchInstancesRequest* request) {
+  return new InstanceWatchReactor(core_, *request);
 }
 
 }  // namespace skimap::server

@@ -5,16 +5,22 @@
 // UpdatePoses, GetOccupancyGrid, GetHeightMap, GetVoxels, RadiusSearch (unary);
 // StreamFrames (bidi, FrameStreamReactor); StreamVoxels (server stream of GetVoxels pages);
 // ExportMap (server stream) and ImportMap (client stream) of export file pieces
-// (map_transfer_reactors.h).
+// (map_transfer_reactors.h), whose store work runs on the adapter's own threads;
+// ListInstances, GetInstance (unary) and WatchInstances (server stream of events,
+// instance_watch_reactor.h).
 //
-// Thread safety: stateless apart from the core pointer; safe for concurrent calls.
+// Thread safety: safe for concurrent calls; no state but the core pointer and the threads
+// for blocking steps.
 #ifndef SERVER_GRPC_GRPC_SERVICE_H_
 #define SERVER_GRPC_GRPC_SERVICE_H_
 
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
+
 #include "server/grpc/stream_limiter.h"
 #include "server/maps/map_service.h"
+#include "server/work_queue.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
 namespace skimap::server {
@@ -22,14 +28,18 @@ namespace skimap::server {
 class GrpcMapService final : public v1::MapService::CallbackService {
  public:
   struct Options {
-    int max_in_flight = 8;  // unacknowledged frames per StreamFrames call
+    int max_in_flight = 8;     // unacknowledged frames per StreamFrames call
+    int transfer_threads = 2;  // threads for the store work of ExportMap / ImportMap
     // Open StreamFrames calls per client (peer address without port); the next one is
     // refused with RESOURCE_EXHAUSTED (stream_limiter.h). 0 = no limit.
     int max_streams_per_client = 0;
   };
-  // REQUIRES: core outlives this service and every call it started.
+  // REQUIRES: core outlives this service; the service outlives every call it started.
   GrpcMapService(MapService* core, const Options& options)
-      : core_(core), options_(options), streams_(options.max_streams_per_client) {}
+      : core_(core),
+        options_(options),
+        streams_(options.max_streams_per_client),
+        blocking_({.capacity = 1, .threads = std::max(1, options.transfer_threads)}) {}
 
   grpc::ServerUnaryReactor* CreateMap(grpc::CallbackServerContext* ctx,
                                       const v1::CreateMapRequest* request,
@@ -68,11 +78,20 @@ class GrpcMapService final : public v1::MapService::CallbackService {
       grpc::CallbackServerContext* ctx, const v1::ExportMapRequest* request) override;
   grpc::ServerReadReactor<v1::ExportChunk>* ImportMap(grpc::CallbackServerContext* ctx,
                                                       v1::Map* response) override;
+  grpc::ServerUnaryReactor* ListInstances(grpc::CallbackServerContext* ctx,
+                                          const v1::ListInstancesRequest* request,
+                                          v1::ListInstancesResponse* response) override;
+  grpc::ServerUnaryReactor* GetInstance(grpc::CallbackServerContext* ctx,
+                                        const v1::GetInstanceRequest* request,
+                                        v1::Instance* response) override;
+  grpc::ServerWriteReactor<v1::InstanceEvent>* WatchInstances(
+      grpc::CallbackServerContext* ctx, const v1::WatchInstancesRequest* request) override;
 
  private:
   MapService* const core_;
   const Options options_;
   StreamLimiter streams_;
+  WorkQueue blocking_;  // ExportMap / ImportMap steps (unbounded: one step per open call)
 };
 
 }  // namespace skimap::server

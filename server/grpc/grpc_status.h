@@ -13,6 +13,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/fleet/redirect.h"
 
 namespace skimap::server {
 
@@ -24,7 +25,10 @@ inline grpc::Status ToGrpcStatus(const absl::Status& s) {
   if (s.ok()) return grpc::Status::OK;
   std::string message(s.message().substr(0, kMaxStatusMessageBytes));
   if (s.message().size() > kMaxStatusMessageBytes) message += "...";
-  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::move(message));
+  // A fleet node's redirect travels in the status details (skimap.v1.StatusDetails).
+  std::string details = StatusDetailsOf(s, message);
+  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::move(message),
+                      std::move(details));
 }
 
 // Finishes a unary callback call with `result`: the value into *response, the status

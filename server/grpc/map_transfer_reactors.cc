@@ -6,19 +6,32 @@
 
 namespace skimap::server {
 
-ExportWriteReactor::ExportWriteReactor(MapService* core, const v1::ExportMapRequest& request) {
-  absl::StatusOr<std::unique_ptr<MapExporter>> exporter = core->ExportMap(request);
-  if (!exporter.ok()) {
-    Finish(ToGrpcStatus(exporter.status()));
-    return;
-  }
-  exporter_ = *std::move(exporter);
-  WriteNext();
+namespace {
+
+grpc::Status ShuttingDown() {
+  return grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is shutting down");
+}
+
+}  // namespace
+
+ExportWriteReactor::ExportWriteReactor(MapService* core, WorkQueue* blocking,
+                                       const v1::ExportMapRequest& request)
+    : blocking_(blocking) {
+  Post([this, core, request] {
+    absl::StatusOr<std::unique_ptr<MapExporter>> exporter = core->ExportMap(request);
+    if (!exporter.ok()) return Finish(ToGrpcStatus(exporter.status()));
+    exporter_ = *std::move(exporter);
+    WriteNext();
+  });
+}
+
+void ExportWriteReactor::Post(std::function<void()> step) {
+  if (!blocking_->Submit(std::move(step))) Finish(ShuttingDown());
 }
 
 void ExportWriteReactor::OnWriteDone(bool ok) {
   if (!ok) return Finish(grpc::Status(grpc::StatusCode::CANCELLED, "client went away"));
-  WriteNext();
+  Post([this] { WriteNext(); });
 }
 
 void ExportWriteReactor::WriteNext() {
@@ -29,10 +42,17 @@ void ExportWriteReactor::WriteNext() {
   StartWrite(&piece_);
 }
 
-ImportReadReactor::ImportReadReactor(MapService* core, grpc::CallbackServerContext* ctx,
-                                     v1::Map* response)
-    : core_(core), ctx_(ctx), response_(response) {
+ImportReadReactor::ImportReadReactor(MapService* core, WorkQueue* blocking,
+                                     grpc::CallbackServerContext* ctx, v1::Map* response)
+    : core_(core), blocking_(blocking), ctx_(ctx), response_(response) {
   StartRead(&piece_);
+}
+
+void ImportReadReactor::OnReadDone(bool ok) {
+  if (!blocking_->Submit([this, ok] { Step(ok); })) {
+    importer_.reset();
+    Finish(ShuttingDown());
+  }
 }
 
 void ImportReadReactor::End(const absl::Status& s) {
@@ -40,7 +60,7 @@ void ImportReadReactor::End(const absl::Status& s) {
   Finish(ToGrpcStatus(s));
 }
 
-void ImportReadReactor::OnReadDone(bool ok) {
+void ImportReadReactor::Step(bool ok) {
   if (!ok && ctx_->IsCancelled()) return End(absl::CancelledError("import cancelled"));
   if (importer_ == nullptr) {  // the first message (or an empty stream)
     absl::StatusOr<std::unique_ptr<MapImporter>> importer =

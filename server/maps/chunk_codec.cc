@@ -60,7 +60,7 @@ absl::StatusOr<OpenedChunk> OpenChunk(std::string_view blob, ChunkContent conten
   (void)crc_in.U32(&crc);
   if (Crc32c(body) != crc) return absl::DataLossError("chunk: checksum mismatch");
   if (version == 0) return absl::DataLossError("chunk: format version 0");
-  if (kind != static_cast<uint8_t>(content) || stored_type != type) {
+  if (kind != static_cast<uint8_t>(content) || (type != kAnyChunkType && stored_type != type)) {
     return absl::DataLossError(absl::StrCat("chunk: holds content ", kind, " type ", stored_type,
                                             ", expected ", static_cast<int>(content), " type ",
                                             type));
@@ -69,6 +69,7 @@ absl::StatusOr<OpenedChunk> OpenChunk(std::string_view blob, ChunkContent conten
   const std::string_view payload = body.substr(kHeaderBytes);
   OpenedChunk out;
   out.count = count;
+  out.type = stored_type;
   if (codec == kCodecRaw) {
     if (payload.size() != raw_size) return absl::DataLossError("chunk: raw size mismatch");
     out.raw.assign(payload);

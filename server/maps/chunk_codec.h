@@ -38,7 +38,10 @@ inline constexpr int kChunkShift = 5;  // a voxel chunk spans 32 keys per axis
 enum class ChunkContent : uint8_t {
   kVoxels = 1,      // voxels of one block of one volume
   kFrameIndex = 2,  // entries of the map's frame index (frame_index.h)
+  kMapMeta = 3,     // the map's counters (map_meta.h)
 };
+// OpenChunk's `type` that accepts any stored type (the caller dispatches on it).
+inline constexpr uint32_t kAnyChunkType = 0xffffffffu;
 
 struct ChunkCoord {
   int32_t x = 0, y = 0, z = 0;
@@ -62,6 +65,7 @@ inline KeyBox ChunkBox(const ChunkCoord& c) {
 }
 
 struct OpenedChunk {
+  uint32_t type = 0;   // the stored voxel / entry type
   uint32_t count = 0;  // items
   std::string raw;     // the uncompressed payload
 };

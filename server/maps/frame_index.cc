@@ -10,9 +10,13 @@ namespace skimap::server {
 namespace {
 
 // Entry layout in a frame-index chunk (little endian): u64 sequence, u64 position,
-// u64 record bytes, pose as 7 f64 (qw, qx, qy, qz, tx, ty, tz): 80 bytes.
-constexpr uint32_t kEntryType = 1;
-constexpr size_t kEntryBytes = 8 * 3 + 7 * 8;
+// u64 record bytes, pose as 7 f64 (qw, qx, qy, qz, tx, ty, tz): 80 bytes (type 1);
+// type 2 adds u8 flags (bit 0: recognised): 81 bytes. Type 1 chunks are still read.
+constexpr uint32_t kEntryTypeV1 = 1;
+constexpr uint32_t kEntryType = 2;
+constexpr size_t kEntryBytesV1 = 8 * 3 + 7 * 8;
+constexpr size_t kEntryBytes = kEntryBytesV1 + 1;
+constexpr uint8_t kRecognized = 1;
 
 int64_t BucketOf(uint64_t sequence) {
   return static_cast<int64_t>(sequence >> FrameIndex::kBucketShift);
@@ -31,6 +35,23 @@ void FrameIndex::Add(uint64_t sequence, Entry entry) {
   by_position_[entry.position] = sequence;
   entries_[sequence] = std::move(entry);
   dirty_.insert(BucketOf(sequence));
+}
+
+void FrameIndex::SetRecognized(uint64_t sequence) {
+  Entry& e = entries_.at(sequence);
+  if (e.recognized) return;
+  e.recognized = true;
+  ++recognized_;
+  dirty_.insert(BucketOf(sequence));
+}
+
+void FrameIndex::ClearRecognized() {
+  for (auto& [sequence, e] : entries_) {
+    if (!e.recognized) continue;
+    e.recognized = false;
+    dirty_.insert(BucketOf(sequence));
+  }
+  recognized_ = 0;
 }
 
 void FrameIndex::SetPose(uint64_t sequence, const perception::CameraPose& pose) {
@@ -92,15 +113,21 @@ std::string FrameIndex::EncodeBucket(int64_t bucket) const {
           x.pose.translation.x(), x.pose.translation.y(), x.pose.translation.z()}) {
       e.F64(v);
     }
+    e.U8(x.recognized ? kRecognized : 0);
     ++count;
   }
   return SealChunk(ChunkContent::kFrameIndex, kEntryType, count, std::move(raw));
 }
 
 absl::Status FrameIndex::DecodeBucket(int64_t bucket, std::string_view blob) {
-  absl::StatusOr<OpenedChunk> opened = OpenChunk(blob, ChunkContent::kFrameIndex, kEntryType);
+  absl::StatusOr<OpenedChunk> opened = OpenChunk(blob, ChunkContent::kFrameIndex, kAnyChunkType);
   if (!opened.ok()) return opened.status();
-  if (opened->raw.size() != size_t{opened->count} * kEntryBytes) {
+  if (opened->type != kEntryType && opened->type != kEntryTypeV1) {
+    return absl::DataLossError(
+        absl::StrCat("frame index chunk: unknown entry type ", opened->type));
+  }
+  const bool v1 = opened->type == kEntryTypeV1;
+  if (opened->raw.size() != size_t{opened->count} * (v1 ? kEntryBytesV1 : kEntryBytes)) {
     return absl::DataLossError("frame index chunk: size does not match its entry count");
   }
   Decoder d(opened->raw);
@@ -108,9 +135,11 @@ absl::Status FrameIndex::DecodeBucket(int64_t bucket, std::string_view blob) {
     uint64_t sequence = 0;
     Entry x;
     double q[4], t[3];
+    uint8_t flags = 0;
     (void)(d.U64(&sequence) && d.U64(&x.position) && d.U64(&x.record_bytes) && d.F64(&q[0]) &&
            d.F64(&q[1]) && d.F64(&q[2]) && d.F64(&q[3]) && d.F64(&t[0]) && d.F64(&t[1]) &&
-           d.F64(&t[2]));
+           d.F64(&t[2]) && (v1 || d.U8(&flags)));
+    x.recognized = (flags & kRecognized) != 0;
     x.pose.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
     x.pose.translation = {t[0], t[1], t[2]};
     if (BucketOf(sequence) != bucket || entries_.contains(sequence) ||
@@ -118,7 +147,10 @@ absl::Status FrameIndex::DecodeBucket(int64_t bucket, std::string_view blob) {
       return absl::DataLossError(absl::StrCat("frame index chunk ", bucket, ": entry ", i,
                                               " is invalid (sequence ", sequence, ")"));
     }
+    const bool recognized = x.recognized;
+    x.recognized = false;
     Add(sequence, std::move(x));
+    if (recognized) SetRecognized(sequence);
   }
   return absl::OkStatus();
 }

@@ -39,6 +39,7 @@ class FrameIndex {
     uint64_t record_bytes = 0;  // size of that record (or of the kept frame)
     perception::CameraPose pose;
     std::shared_ptr<const v1::Frame> frame;  // in memory (maps without a store); may be null
+    bool recognized = false;  // its labels are in the map's labels volume (with `pose`)
   };
   static constexpr int kBucketShift = 12;  // sequences per frame-index chunk: 4096
 
@@ -49,6 +50,11 @@ class FrameIndex {
   void Add(uint64_t sequence, Entry entry);
   // REQUIRES: Contains(sequence).
   void SetPose(uint64_t sequence, const perception::CameraPose& pose);
+  // Marks the frame recognised (REQUIRES: Contains(sequence)); recognized() counts them.
+  void SetRecognized(uint64_t sequence);
+  uint64_t recognized() const { return recognized_; }
+  // Marks every frame not recognised (their labels were dropped).
+  void ClearRecognized();
 
   // Maps without a store: drops kept frames, oldest first, until they weigh <= max_bytes.
   void LimitKeptFrames(size_t max_bytes);
@@ -77,6 +83,7 @@ class FrameIndex {
   uint64_t pruned_upto_ = 0;
   uint64_t journal_bytes_ = 0;
   size_t kept_bytes_ = 0;
+  uint64_t recognized_ = 0;
 };
 
 }  // namespace skimap::server

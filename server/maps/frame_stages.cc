@@ -24,8 +24,8 @@ class Pending {
   WriteStats Apply(SkiMap<V>* volume, DirtyChunks* dirty, ThreadPool* pool) {
     remove_.Finalize(pool);
     add_.Finalize(pool);
-    MarkDirty(remove_, dirty);
-    MarkDirty(add_, dirty);
+    MarkDirtyChunks(remove_.items(), dirty);
+    MarkDirtyChunks(add_.items(), dirty);
     WriteStats stats;
     if (!remove_.empty()) stats += volume->Deintegrate(remove_);
     if (!add_.empty()) stats += volume->Integrate(add_);
@@ -38,18 +38,6 @@ class Pending {
   }
 
  private:
-  // Items are sorted by key, so runs share a chunk: one set insert per run.
-  static void MarkDirty(const VoxelBatch<V>& batch, DirtyChunks* dirty) {
-    bool first = true;
-    ChunkCoord last;
-    for (const auto& item : batch.items()) {
-      const ChunkCoord c = ChunkOf(item.key);
-      if (first || !(c == last)) dirty->insert(c);
-      first = false;
-      last = c;
-    }
-  }
-
   VoxelBatch<V> add_, remove_, scratch_;
 };
 

@@ -14,6 +14,7 @@
 #include "perception/frame_integrator.h"
 #include "server/maps/chunk_codec.h"
 #include "server/maps/frame_decode.h"
+#include "server/maps/map_meta.h"
 
 namespace skimap::server {
 namespace {
@@ -38,6 +39,7 @@ struct LiveMap::Capture {
   std::vector<storage::Chunk> index_chunks;
   std::vector<std::pair<std::string, ChunkCoord>> coords;  // every captured volume chunk
   std::vector<int64_t> buckets;                            // every captured index chunk
+  bool meta = false;                                       // the meta chunk was captured
   uint64_t prune_upto = 0;
   bool empty() const { return encoders.empty() && removed.empty() && index_chunks.empty(); }
 };
@@ -73,9 +75,16 @@ LiveMap::LiveMap(std::string id, const Options& options)
       options_(options),
       state_(options.config, options.pool),
       stages_(MakeFrameStages(options.config, Grid(options.config.resolution), options.pool)),
-      queue_({.capacity = options.queue_capacity}) {}
+      queue_({.capacity = options.queue_capacity}) {
+  StartRecognition();
+}
 
-LiveMap::~LiveMap() = default;
+LiveMap::~LiveMap() {
+  // Queued writes run first (they may hand frames to recognition), then recognition stops
+  // (its last job may still use the worker), then the worker goes.
+  Drain();
+  recognition_.reset();
+}
 
 absl::Status LiveMap::Refused() const {
   if (deleted_.load(std::memory_order_acquire)) {
@@ -98,8 +107,22 @@ std::string LiveMap::RetentionPolicy() const {
 void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done) {
   if (absl::Status s = Refused(); !s.ok()) return done(s);
   auto shared_done = std::make_shared<FrameDone>(std::move(done));
-  const bool queued = queue_.TrySubmit(
-      [this, frame, shared_done] { (*shared_done)(IntegrateOnWorker(frame, Source::kAppend, 0)); });
+  const bool queued = queue_.TrySubmit([this, frame, shared_done] {
+    std::shared_ptr<const perception::RgbdFrame> decoded;
+    absl::StatusOr<v1::FrameAck> ack = IntegrateOnWorker(frame, Source::kAppend, 0, &decoded);
+    if (ack.ok() && decoded != nullptr) {
+      // The every-frame policy acks after recognition: the ack then carries this frame.
+      auto acked = std::make_shared<v1::FrameAck>(*ack);
+      const bool taken = OfferRecognition(
+          frame->sequence(), *frame, std::move(decoded), [this, acked, shared_done] {
+            acked->set_recognized_frames(recognized_frames_.load(std::memory_order_acquire));
+            (*shared_done)(*acked);
+          });
+      if (taken) return;
+      ack->set_recognized_frames(recognized_frames_.load(std::memory_order_acquire));
+    }
+    (*shared_done)(std::move(ack));
+  });
   if (!queued) {
     (*shared_done)(absl::ResourceExhaustedError(
         absl::StrCat("map ", MapName(id_), ": write queue full (", options_.queue_capacity,
@@ -178,6 +201,14 @@ absl::Status LiveMap::LoadSnapshotOnWorker() {
         absl::Status s = index_.DecodeBucket(c.key.x, c.bytes);
         return s.ok() ? s : chunk_error(c.key, s);
       }
+      if (c.key.volume == kMetaVolume) {
+        absl::StatusOr<MapMeta> meta = DecodeMapMeta(c.bytes);
+        if (!meta.ok()) return chunk_error(c.key, meta.status());
+        state_.recognition.next_instance_id = meta->next_instance_id;
+        state_.recognition.log.Restart(meta->last_event_sequence);
+        state_.recognition.fingerprint = meta->fingerprint;
+        return absl::OkStatus();
+      }
       if (!ValidChunkCoord(c.key)) {
         return chunk_error(c.key, absl::DataLossError("coordinates outside the key range"));
       }
@@ -200,6 +231,7 @@ absl::Status LiveMap::LoadSnapshotOnWorker() {
     state_.ForEachVolume([](const char*, auto&, DirtyChunks& dirty) { dirty.clear(); });
   }
   (void)index_.TakeDirty();
+  AfterLoadRecognition();
   // Records before the first one left in the journal were pruned.
   uint64_t first = 0;
   absl::Status read = store.ReadJournal(id_, 0, 1, [&](const storage::JournalRecord& r) {
@@ -235,8 +267,9 @@ absl::Status LiveMap::ReplayOnWorker(const storage::JournalRecord& record) {
   return UpdatePosesOnWorker(request, Source::kReplay, record.position).status();
 }
 
-absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
-                                                        Source source, uint64_t position) {
+absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
+    std::shared_ptr<const v1::Frame> frame, Source source, uint64_t position,
+    std::shared_ptr<const perception::RgbdFrame>* decoded_out) {
   if (absl::Status s = Refused(); !s.ok()) return s;
   const Clock::time_point start = Clock::now();
   if (index_.Contains(frame->sequence())) {
@@ -286,6 +319,9 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(std::shared_ptr<const v1
                                  " valid pixels outside it)"));
   }
   SetDuration(Clock::now() - start, ack.mutable_integration_time());
+  if (decoded_out != nullptr && recognition_ != nullptr) {
+    *decoded_out = std::make_shared<const perception::RgbdFrame>(*std::move(decoded));
+  }
   return ack;
 }
 
@@ -299,10 +335,12 @@ perception::IntegrationStats LiveMap::StageFrame(const perception::RgbdFrame& fr
   return first;
 }
 
-WriteStats LiveMap::ApplyStages(uint64_t frames_added, uint64_t position) {
+WriteStats LiveMap::ApplyStages(uint64_t frames_added, uint64_t position,
+                                const std::function<void(MapState&)>& also) {
   WriteStats total;
   WriterLock lock(&snapshot_mu_);
   for (const std::unique_ptr<FrameStage>& stage : stages_) total += stage->Apply(&state_);
+  if (also) also(state_);
   state_.frames += frames_added;
   if (position > 0) state_.journal_position = position;
   return total;
@@ -318,9 +356,11 @@ absl::StatusOr<std::shared_ptr<const v1::Frame>> LiveMap::FrameOf(const FrameInd
         options_.max_kept_frame_bytes, " bytes of frames are; this server has no data dir)"));
   }
   const auto pruned = [&] {
-    return absl::FailedPreconditionError(absl::StrCat(field, ".sequence: frame ", sequence,
-                                                      " was pruned from the journal by the ",
-                                                      RetentionPolicy()));
+    return absl::FailedPreconditionError(
+        absl::StrCat(field, ".sequence: frame ", sequence,
+                     " is no longer in the journal: pruned by the ", RetentionPolicy(),
+                     ", or left out of an export made without its journal (skimap export "
+                     "--with-journal keeps it)"));
   };
   if (index_.Pruned(entry)) return pruned();
   absl::StatusOr<storage::JournalRecord> record =
@@ -386,15 +426,21 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
       for (const std::unique_ptr<FrameStage>& stage : stages_) stage->Clear();
       return frame.status();
     }
-    frame->pose = index_.Find(request.updates(i).sequence())->pose;
+    const FrameIndex::Entry& entry = *index_.Find(request.updates(i).sequence());
+    frame->pose = entry.pose;
     StageFrame(*frame, FrameStage::kRemove);
+    if (entry.recognized) {
+      StageRecognitionMove(request.updates(i).sequence(), *frame, entry.pose, poses[i]);
+    }
     frame->pose = poses[i];
     StageFrame(*frame, FrameStage::kAdd);
   }
   // ... and applied in one snapshot: a reader sees every correction or none. The weights
   // are integer counts, so merged de-integration is exact.
   v1::UpdatePosesResponse response;
-  const WriteStats total = ApplyStages(0, position);
+  const WriteStats total =
+      ApplyStages(0, position, [&](MapState& state) { ApplyRecognitionMoves(state, position); });
+  NotifyWatchers();
   for (int i = 0; i < request.updates_size(); ++i) {
     index_.SetPose(request.updates(i).sequence(), poses[i]);
   }
@@ -418,6 +464,16 @@ std::unique_ptr<LiveMap::Capture> LiveMap::CaptureOnWorker() {
       taken[name] = std::move(dirty);
       dirty.clear();
     });
+    recognition_changes_.store(0, std::memory_order_release);
+    if (state_.recognition.meta_dirty) {
+      state_.recognition.meta_dirty = false;
+      c->meta = true;
+      c->index_chunks.push_back(
+          {{kMetaVolume, 0, 0, 0},
+           EncodeMapMeta({.next_instance_id = state_.recognition.next_instance_id,
+                          .last_event_sequence = state_.recognition.log.last_sequence(),
+                          .fingerprint = state_.recognition.fingerprint})});
+    }
   }
   ReaderLock lock(&snapshot_mu_);
   state_.ForEachVolume([&](const char* name, const auto& volume, const DirtyChunks&) {
@@ -488,7 +544,9 @@ absl::Status LiveMap::SnapshotLocked() {
           if (entry.first == n) dirty.insert(entry.second);
         });
       }
+      if (c->meta) state_.recognition.meta_dirty = true;
     }
+    recognition_changes_.fetch_add(1, std::memory_order_acq_rel);
     (void)queue_.Submit([this, buckets = std::move(c->buckets)] { index_.MarkDirty(buckets); });
     return absl::Status(written.code(), absl::StrCat("snapshot of ", MapName(id_),
                                                      " not written: ", written.message()));
@@ -514,7 +572,16 @@ v1::MapStats LiveMap::Stats() const {
   v1::MapStats stats;
   ReaderLock lock(&snapshot_mu_);
   stats.set_voxels(state_.rgb.size());
-  stats.set_memory_bytes(state_.rgb.MemoryUsage() + state_.free.MemoryUsage());
+  size_t memory = 0;
+  state_.ForEachVolume(
+      [&](const char*, const auto& volume, const DirtyChunks&) { memory += volume.MemoryUsage(); });
+  stats.set_memory_bytes(memory);
+  stats.set_recognized_frames(state_.recognition.recognized_frames);
+  stats.set_recognition_skipped(recognition_ != nullptr ? recognition_->skipped() : 0);
+  stats.set_label_voxels(state_.labels.size());
+  stats.set_hypothesis_voxels(state_.hypotheses.size());
+  stats.set_instances(state_.recognition.instance_keys.size());
+  stats.set_instance_event_sequence(state_.recognition.log.last_sequence());
   stats.set_frames(state_.frames);
   stats.set_kept_frame_bytes(kept_frame_bytes_.load(std::memory_order_relaxed));
   stats.set_free_voxels(state_.free.size());

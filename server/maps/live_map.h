@@ -15,27 +15,42 @@
 // Apply). Readers (Read, Stats) hold it shared, so every read sees a consistent snapshot
 // made of whole frames and whole pose updates.
 //
+// Recognition (maps with options.recognition.enabled; docs/recognition.md): the worker
+// hands each integrated frame to the map's RecognitionQueue (recognition_queue.h), whose
+// thread detects and classifies features, then has the worker fuse the labels (with the
+// frame's current pose), votes for local hypotheses in the active sphere, and has the
+// worker add them and reconcile the instances (instance_reconciler.h). Every write to the
+// MapState stays on the worker.
+//
 // Thread safety: thread safe. Completion callbacks run on the worker thread (or on the
-// submitting thread when the frame is refused up front) and must not block for long.
+// submitting thread when the frame is refused up front, or on the recognition thread for
+// acks of maps with the every-frame policy) and must not block for long.
 #ifndef SERVER_MAPS_LIVE_MAP_H_
 #define SERVER_MAPS_LIVE_MAP_H_
 
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "perception/objects/object_database.h"
+#include "perception/recognition/label_observer.h"
+#include "perception/recognition/pose_voting.h"
+#include "perception/recognition/recognition_model.h"
 #include "perception/rgbd_frame.h"
 #include "server/maps/frame_index.h"
 #include "server/maps/frame_stages.h"
 #include "server/maps/map_config.h"
 #include "server/maps/map_state.h"
+#include "server/maps/recognition_queue.h"
 #include "server/work_queue.h"
 #include "skimap/rw_lock.h"
 #include "skimap/skimap.h"
@@ -60,6 +75,9 @@ class LiveMap {
     // Retention policy: once a snapshot covers them, the oldest frame records are pruned
     // from the journal while the map's frame records weigh more than this.
     uint64_t journal_retain_bytes = uint64_t{1} << 30;
+    // The object database maps with recognition use, asked once when the map is created
+    // or loaded (the map keeps that one). Null, or returning null: no recognition.
+    std::function<std::shared_ptr<const objects::ObjectDatabase>()> classifier;
   };
   using FrameDone = std::function<void(absl::StatusOr<v1::FrameAck>)>;
   using PosesDone = std::function<void(absl::StatusOr<v1::UpdatePosesResponse>)>;
@@ -132,17 +150,41 @@ class LiveMap {
   // True while a SnapshotHold lives (the registry does not evict such a map).
   bool snapshots_held() const { return snapshot_holds_.load(std::memory_order_acquire) > 0; }
 
-  // Journal records not yet covered by a snapshot.
+  // Journal records not yet covered by a snapshot, plus recognition results applied since
+  // the last snapshot capture (they change volumes without a journal record).
   uint64_t records_since_snapshot() const {
     return journal_position_.load(std::memory_order_acquire) -
-           snapshot_position_.load(std::memory_order_acquire);
+           snapshot_position_.load(std::memory_order_acquire) +
+           recognition_changes_.load(std::memory_order_acquire);
   }
 
-  // Makes queued and future writes answer NotFound (the map left the registry).
-  void MarkDeleted() { deleted_.store(true, std::memory_order_release); }
+  // Recognition. OK when the map recognises objects or has recognition off; otherwise why
+  // it does not (FailedPrecondition: no classifier, or objects missing from it).
+  absl::Status recognition_status() const { return recognition_status_; }
+  // The model recognition uses; null when it does not run.
+  const recognition::RecognitionModel* recognition_model() const { return model_.get(); }
+  // Returns once every frame handed to recognition so far was processed.
+  void FlushRecognition();
+  // Instance events: `wake` runs (on the worker, under a mutex: it must only schedule
+  // work) after new events were appended to the map's InstanceLog. Remove returns once
+  // `wake` no longer runs.
+  uint64_t AddInstanceWatcher(std::function<void()> wake);
+  void RemoveInstanceWatcher(uint64_t id);
+
+  // Makes queued and future writes answer NotFound (the map left the registry); instance
+  // watchers are woken to see it.
+  void MarkDeleted() {
+    deleted_.store(true, std::memory_order_release);
+    NotifyWatchers();
+  }
   // Makes queued and future writes answer Unavailable (the map was evicted from memory: a
   // retry reaches its reloaded copy).
-  void MarkEvicted(bool evicted = true) { evicted_.store(evicted, std::memory_order_release); }
+  void MarkEvicted(bool evicted = true) {
+    evicted_.store(evicted, std::memory_order_release);
+    NotifyWatchers();
+  }
+  // OK, or the error writes get: NotFound after MarkDeleted, Unavailable after MarkEvicted.
+  absl::Status Refused() const;
   // Returns once the writes queued before the call have run.
   void Drain() {
     queue_.Run([] {});
@@ -154,8 +196,10 @@ class LiveMap {
   enum class Source { kAppend, kReplay };
   struct Capture;
   // Worker thread only.
-  absl::StatusOr<v1::FrameAck> IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
-                                                 Source source, uint64_t position);
+  // `decoded_out` (may be null): the decoded frame, for recognition (maps with it only).
+  absl::StatusOr<v1::FrameAck> IntegrateOnWorker(
+      std::shared_ptr<const v1::Frame> frame, Source source, uint64_t position,
+      std::shared_ptr<const perception::RgbdFrame>* decoded_out = nullptr);
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(const v1::UpdatePosesRequest& request,
                                                               Source source, uint64_t position);
   absl::StatusOr<std::shared_ptr<const v1::Frame>> FrameOf(const FrameIndex::Entry& entry,
@@ -174,9 +218,37 @@ class LiveMap {
                                           FrameStage::Sign sign);
   // Applies every stage's staged changes under the exclusive lock; `frames_added` is added
   // to the frame counter and `position` becomes the state's journal position, in the same
-  // snapshot.
-  WriteStats ApplyStages(uint64_t frames_added, uint64_t position);
-  absl::Status Refused() const;  // NotFound after MarkDeleted, Unavailable after MarkEvicted
+  // snapshot. `also` (may be null) runs under the same lock.
+  WriteStats ApplyStages(uint64_t frames_added, uint64_t position,
+                         const std::function<void(MapState&)>& also = nullptr);
+
+  // Recognition (live_map_recognition.cc).
+  void StartRecognition();  // constructor: model, observers, queue (when enabled)
+  // Worker: hands an integrated frame to recognition; true if `done` was taken over (the
+  // every-frame policy acks after recognition).
+  bool OfferRecognition(uint64_t sequence, const v1::Frame& frame,
+                        std::shared_ptr<const perception::RgbdFrame> decoded,
+                        const std::function<void()>& done);
+  void RecognizeOnThread(RecognitionJob& job);  // the recognition thread
+  // Worker: fuses a frame's labels with its current pose; nullopt if the frame is gone or
+  // was recognised already.
+  std::optional<perception::CameraPose> ApplyLabelsOnWorker(
+      uint64_t sequence, const recognition::LabelObservations& observations);
+  struct Voted {
+    int object_index;
+    recognition::PoseEstimate estimate;
+  };
+  // Worker: adds a frame's hypotheses and reconciles the instances of their objects.
+  void ApplyHypothesesOnWorker(const RecognitionJob& job, const recognition::Sphere& sphere,
+                               const std::vector<Voted>& voted);
+  // Worker, UpdatePoses: stages the labels of recognised frame `frame` (its old and new
+  // pose) and returns what must move in the recognition volumes under the write's lock.
+  void StageRecognitionMove(uint64_t sequence, const perception::RgbdFrame& frame,
+                            const perception::CameraPose& old_pose,
+                            const perception::CameraPose& new_pose);
+  void ApplyRecognitionMoves(MapState& state, uint64_t position);  // under the lock
+  void AfterLoadRecognition();  // worker, after the snapshot was read
+  void NotifyWatchers();
   std::string RetentionPolicy() const;
 
   const std::string id_;
@@ -202,7 +274,24 @@ class LiveMap {
   std::mutex snapshot_run_mu_;  // one Snapshot() at a time
   std::atomic<int> snapshot_holds_{0};
 
-  WorkQueue queue_;  // last: destroyed first, draining tasks while the rest is alive
+  // Recognition: the model (null without), why it does not run, the worker's observer
+  // (UpdatePoses re-observes moved frames), label moves staged by UpdatePoses.
+  std::shared_ptr<const recognition::RecognitionModel> model_;
+  absl::Status recognition_status_;
+  std::unique_ptr<recognition::LabelObserver> worker_observer_;
+  std::unique_ptr<recognition::LabelObserver> thread_observer_;  // recognition thread only
+  VoxelBatch<MultiLabelVoxel> labels_add_, labels_remove_;       // worker only
+  std::map<uint64_t, Eigen::Isometry3d> hypothesis_moves_;       // worker only: frame -> delta
+  std::atomic<uint64_t> recognized_frames_{0};
+  std::atomic<uint64_t> recognition_changes_{0};  // applied since the last capture
+  std::mutex watchers_mu_;
+  std::map<uint64_t, std::function<void()>> watchers_;  // guarded by watchers_mu_
+  uint64_t next_watcher_ = 1;                           // guarded by watchers_mu_
+
+  WorkQueue queue_;  // destroyed before the members above, draining tasks while they live
+  // After queue_, so destroyed before it: its jobs use the worker. ~LiveMap drains the
+  // worker first, then stops this, then the worker goes.
+  std::unique_ptr<RecognitionQueue> recognition_;
 };
 
 }  // namespace skimap::server

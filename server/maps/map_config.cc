@@ -53,6 +53,11 @@ absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& o) {
     }
     c.carve_pixel_stride = static_cast<int>(o.carve_pixel_stride());
   }
+  if (o.has_recognition()) {
+    absl::StatusOr<RecognitionConfig> r = ResolveRecognitionOptions(o.recognition());
+    if (!r.ok()) return r.status();
+    c.recognition = *std::move(r);
+  }
   return c;
 }
 
@@ -68,6 +73,7 @@ v1::MapOptions ToProto(const MapConfig& c) {
   o.set_floor_min_z(c.floor_min_z);
   o.set_carve_free_space(c.carve_free_space);
   o.set_carve_pixel_stride(c.carve_pixel_stride);
+  if (c.recognition.enabled) *o.mutable_recognition() = ToProto(c.recognition);
   return o;
 }
 

@@ -11,6 +11,7 @@
 #include "absl/strings/string_view.h"
 #include "perception/frame_integrator.h"
 #include "perception/free_space.h"
+#include "server/maps/recognition_config.h"
 #include "skimap/map_queries.h"
 #include "skimap/v1/maps.pb.h"
 
@@ -23,6 +24,7 @@ struct MapConfig {
   double band_min_z = 0.05, band_max_z = 1.5, floor_min_z = -0.3;  // occupancy grid band
   bool carve_free_space = false;  // free-space carving (MapOptions.carve_free_space)
   int carve_pixel_stride = 4;
+  RecognitionConfig recognition;  // MapOptions.recognition (recognition_config.h)
   // The carving parameters as perception takes them (the slab is the grid band).
   perception::FreeSpaceOptions FreeSpace() const {
     return {.pixel_stride = carve_pixel_stride, .min_z = band_min_z, .max_z = band_max_z};

@@ -44,6 +44,17 @@ std::shared_ptr<LiveMap> MapRegistry::NewMap(const std::string& id, const MapCon
   return std::make_shared<LiveMap>(id, options);
 }
 
+void MapRegistry::ForEachLoaded(const std::function<void(LiveMap&)>& fn) const {
+  std::vector<std::shared_ptr<LiveMap>> loaded;
+  {
+    ReaderLock lock(&mu_);
+    for (const auto& [id, e] : maps_) {
+      if (e.map != nullptr) loaded.push_back(e.map);
+    }
+  }
+  for (const std::shared_ptr<LiveMap>& map : loaded) fn(*map);
+}
+
 absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Create(const std::string& id,
                                                              const MapConfig& config) {
   WriterLock lock(&mu_);
@@ -164,6 +175,40 @@ absl::Status MapRegistry::Delete(const std::string& id) {
     doomed->Drain();
   }
   return absl::OkStatus();  // `doomed` released outside the lock
+}
+
+void MapRegistry::Reset(const std::string& id, const MapConfig& config) { Replace(id, &config); }
+
+void MapRegistry::Unload(const std::string& id) { Replace(id, nullptr); }
+
+void MapRegistry::Replace(const std::string& id, const MapConfig* config) {
+  std::shared_ptr<std::mutex> load_mu;
+  {
+    WriterLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end()) {
+      if (config != nullptr) maps_[id] = Entry{.config = *config};
+      return;
+    }
+    load_mu = it->second.load_mu;
+  }
+  std::lock_guard<std::mutex> no_load(*load_mu);  // not while it loads or leaves memory
+  std::shared_ptr<LiveMap> dropped;
+  {
+    WriterLock lock(&mu_);
+    auto it = maps_.find(id);
+    if (it == maps_.end()) {
+      if (config != nullptr) maps_[id] = Entry{.config = *config};
+      return;
+    }
+    dropped = std::move(it->second.map);
+    it->second.error = absl::OkStatus();
+    if (config != nullptr) it->second.config = *config;
+  }
+  if (dropped != nullptr) {
+    dropped->MarkEvicted();  // no snapshot: the store refuses this node's writes anyway
+    dropped->Drain();
+  }
 }
 
 uint64_t MapRegistry::LoadedBytes() const {

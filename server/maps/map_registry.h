@@ -27,6 +27,7 @@
 #define SERVER_MAPS_MAP_REGISTRY_H_
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -60,6 +61,9 @@ class MapRegistry {
 
   explicit MapRegistry(const Options& options) : options_(options) {}
 
+  // Calls fn(map) for every loaded map (outside the registry's lock).
+  void ForEachLoaded(const std::function<void(LiveMap&)>& fn) const;
+
   // A new empty map, loaded. AlreadyExists if `id` is taken; ResourceExhausted beyond
   // max_maps. REQUIRES: ValidateMapId(id) is OK.
   absl::StatusOr<std::shared_ptr<LiveMap>> Create(const std::string& id, const MapConfig& config);
@@ -88,6 +92,15 @@ class MapRegistry {
   // Drops the reservation of `id` (no-op if it has none).
   void Release(const std::string& id);
 
+  // Fleet nodes (map_ownership.h): drops the loaded copy of map `id`, if any, without a
+  // snapshot (its queued writes answer Unavailable), and registers the map as stored with
+  // `config`, to be loaded from the store by the next Get (another node may have written
+  // it). Adds the map if it is not known here.
+  void Reset(const std::string& id, const MapConfig& config);
+  // Fleet nodes: drops the loaded copy of map `id` (as Reset, keeping its config); no-op
+  // for a map not loaded or not known.
+  void Unload(const std::string& id);
+
   // Snapshots every loaded map with journal records no snapshot covers (all of them when
   // `min_records` is 1) and evicts beyond the memory budget (see above). Errors are
   // reported on stderr and retried next time.
@@ -107,6 +120,9 @@ class MapRegistry {
   absl::Status CheckRoom(const std::string& id) const ABSL_SHARED_LOCKS_REQUIRED(mu_);
   std::shared_ptr<LiveMap> NewMap(const std::string& id, const MapConfig& config) const;
   void Evict(const std::string& id, std::shared_ptr<LiveMap> map);
+  // Reset / Unload: replaces the entry of `id` (config kept when null) after dropping its
+  // loaded copy; does nothing for an unknown id unless `config` is given.
+  void Replace(const std::string& id, const MapConfig* config);
 
   const Options options_;
   mutable RwLock mu_;

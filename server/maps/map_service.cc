@@ -19,6 +19,7 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
   r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
   r.map_defaults.store = o.store;
   r.map_defaults.journal_retain_bytes = o.journal_retain_bytes;
+  r.map_defaults.classifier = o.classifier;
   r.max_maps = o.max_maps;
   r.memory_budget_bytes = o.memory_budget_bytes;
   return r;
@@ -29,7 +30,11 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
 MapService::MapService(const Options& options)
     : options_(options),
       pool_(std::make_unique<ThreadPool>(options.worker_threads)),
-      registry_(RegistryOptions(options, pool_.get())) {}
+      registry_(RegistryOptions(options, pool_.get())) {
+  if (options_.ownership != nullptr) {
+    options_.ownership->OnLost([this](const std::string& id) { registry_.Unload(id); });
+  }
+}
 
 MapService::~MapService() {
   if (maintenance_.joinable()) {
@@ -40,8 +45,11 @@ MapService::~MapService() {
     maintenance_cv_.SignalAll();
     maintenance_.join();
   }
-  // A last snapshot makes the next start replay nothing.
-  if (options_.store != nullptr) SnapshotAll();
+  // A last snapshot makes the next start replay nothing (recognition finished first).
+  if (options_.store != nullptr) {
+    registry_.ForEachLoaded([](LiveMap& map) { map.FlushRecognition(); });
+    SnapshotAll();
+  }
 }
 
 void MapService::MaintenanceLoop() {
@@ -90,6 +98,7 @@ absl::StatusOr<std::shared_ptr<LiveMap>> MapService::FindMap(const std::string& 
                                                              const char* field) const {
   absl::StatusOr<std::string> id = ParseMapName(name, field);
   if (!id.ok()) return id.status();
+  if (absl::Status s = ClaimMap(*id); !s.ok()) return s;
   return registry_.Get(*id);
 }
 
@@ -102,6 +111,9 @@ absl::Status MapService::Recover() {
       std::fprintf(stderr, "skimapd: map %s not loaded: %s\n", MapName(m.id).c_str(),
                    why.ToString().c_str());
     };
+    // A fleet node does not own the maps of the store: it claims each on its first use (an
+    // import left unfinished by a node that died is removed then).
+    if (m.importing && options_.ownership != nullptr) continue;
     if (m.importing) {  // the process ended during the import: it never became a map
       absl::Status s = options_.store->DeleteMap(m.id);
       std::fprintf(stderr, "skimapd: map %s: removing an import that did not finish%s%s\n",
@@ -122,7 +134,9 @@ absl::Status MapService::Recover() {
       skip(s);
       continue;
     }
-    if (!options_.lazy_load) (void)registry_.Get(m.id);  // an error stays with the map
+    if (!options_.lazy_load && options_.ownership == nullptr) {
+      (void)registry_.Get(m.id);  // an error stays with the map
+    }
   }
   maintenance_ = std::thread([this] { MaintenanceLoop(); });
   return absl::OkStatus();
@@ -132,6 +146,8 @@ absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& reques
   if (absl::Status s = ValidateMapId(request.map_id(), "map_id"); !s.ok()) return s;
   absl::StatusOr<MapConfig> config = ResolveMapOptions(request.options());
   if (!config.ok()) return config.status();
+  if (absl::Status s = CheckRecognition(config->recognition); !s.ok()) return s;
+  if (options_.ownership != nullptr) SyncWithStore();  // ids taken or freed by other nodes
   absl::StatusOr<std::shared_ptr<LiveMap>> map = registry_.Create(request.map_id(), *config);
   if (!map.ok()) return map.status();
   if (options_.store != nullptr) {
@@ -143,7 +159,27 @@ absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& reques
                                                       " not created: ", stored.message()));
     }
   }
+  if (options_.ownership != nullptr) (void)ClaimMap(request.map_id());  // held since created
   return Describe({.id = request.map_id(), .config = *config, .map = *map});
+}
+
+absl::Status MapService::CheckRecognition(const RecognitionConfig& config) const {
+  if (!config.enabled) return absl::OkStatus();
+  std::shared_ptr<const objects::ObjectDatabase> db =
+      options_.classifier ? options_.classifier() : nullptr;
+  if (db == nullptr) {
+    return absl::FailedPreconditionError(
+        "options.recognition.enabled: the server has no object classifier yet (train objects "
+        "and build it: skimap objects train, skimap objects build)");
+  }
+  for (size_t i = 0; i < config.obj_ids.size(); ++i) {
+    if (db->FindObject(config.obj_ids[i]) < 0) {
+      return absl::InvalidArgumentError(absl::StrCat("options.recognition.obj_ids[", i,
+                                                     "]: object ", config.obj_ids[i],
+                                                     " is not in the classifier"));
+    }
+  }
+  return absl::OkStatus();
 }
 
 absl::StatusOr<v1::Map> MapService::GetMap(const v1::GetMapRequest& request) const {
@@ -165,9 +201,21 @@ absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
     after = *id;
   }
   const size_t limit = request.page_size() == 0 ? 50 : request.page_size();
+  if (options_.ownership != nullptr) SyncWithStore();  // maps of every node
   std::vector<MapRegistry::Listed> maps = registry_.List(after, limit + 1);
+  const std::map<std::string, MapOwnership::Owner> owners = Owners();
   v1::ListMapsResponse response;
-  for (size_t i = 0; i < maps.size() && i < limit; ++i) *response.add_maps() = Describe(maps[i]);
+  for (size_t i = 0; i < maps.size() && i < limit; ++i) {
+    v1::Map* map = response.add_maps();
+    auto owner = owners.find(maps[i].id);
+    // Not served here: a copy here (if any) may not be current; the store's stats.
+    if (owner != owners.end() && !owner->second.here) maps[i].map = nullptr;
+    *map = Describe(maps[i]);
+    if (owner != owners.end() && owner->second.live) {
+      map->set_owner_node(owner->second.node);
+      map->set_owner_address(owner->second.address);
+    }
+  }
   if (maps.size() > limit) response.set_next_page_token(EncodePageToken(query, maps[limit - 1].id));
   return response;
 }
@@ -175,6 +223,7 @@ absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
 absl::Status MapService::DeleteMap(const v1::DeleteMapRequest& request) {
   absl::StatusOr<std::string> id = ParseMapName(request.name(), "name");
   if (!id.ok()) return id.status();
+  if (absl::Status s = ClaimMap(*id); !s.ok()) return s;
   if (absl::Status s = registry_.Delete(*id); !s.ok()) return s;
   if (options_.store != nullptr) {
     absl::Status s = options_.store->DeleteMap(*id);

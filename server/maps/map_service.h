@@ -11,17 +11,21 @@
 #ifndef SERVER_MAPS_MAP_SERVICE_H_
 #define SERVER_MAPS_MAP_SERVICE_H_
 
+#include <functional>
 #include <memory>
 #include <thread>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "server/maps/map_exporter.h"
 #include "server/maps/map_importer.h"
+#include "server/maps/map_ownership.h"
 #include "server/maps/map_registry.h"
 #include "skimap/mutex.h"
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
+#include "skimap/v1/instances.pb.h"
 #include "skimap/v1/maps.pb.h"
 #include "skimap/v1/queries.pb.h"
 #include "storage/map_store.h"
@@ -59,6 +63,12 @@ class MapService {
     uint64_t snapshot_records = 600;
     // Retention policy of the journal (LiveMap::Options::journal_retain_bytes).
     uint64_t journal_retain_bytes = uint64_t{1} << 30;
+    // The object classifier for maps with recognition (LiveMap::Options::classifier).
+    std::function<std::shared_ptr<const objects::ObjectDatabase>()> classifier;
+    // A fleet node (server/fleet/fleet_node.h; not owned, outlives the service): every
+    // request for a map claims it first (map_service_fleet.cc), maps are loaded on first
+    // use, and ListMaps lists the store's maps with their owners. Null: a single server.
+    MapOwnership* ownership = nullptr;
   };
   explicit MapService(const Options& options);
   ~MapService();
@@ -103,11 +113,45 @@ class MapService {
   absl::StatusOr<std::unique_ptr<MapImporter>> ImportMap(const std::string& map_id);
   absl::StatusOr<v1::Map> FinishImport(MapImporter& importer);
 
+  // Instances found by recognition (map_service_instances.cc). FailedPrecondition for a map
+  // without recognition; InvalidArgument naming the field (region, page_token, ...).
+  absl::StatusOr<v1::ListInstancesResponse> ListInstances(
+      const v1::ListInstancesRequest& request) const;
+  absl::StatusOr<v1::Instance> GetInstance(const v1::GetInstanceRequest& request) const;
+  // WatchInstances: a watch of one map's instance events. Next() gives the events after the
+  // last one it gave (at most `max`), starting after request.after_sequence; `wake` runs
+  // (on a map thread; it must only schedule work) when new events may be there. Errors:
+  // the map's lookup, FailedPrecondition (no recognition, events no longer kept), NotFound
+  // once the map was deleted.
+  class InstanceWatch {
+   public:
+    ~InstanceWatch();
+    absl::StatusOr<std::vector<v1::InstanceEvent>> Next(size_t max);
+
+   private:
+    friend class MapService;
+    InstanceWatch(std::shared_ptr<LiveMap> map, uint64_t after)
+        : map_(std::move(map)), after_(after) {}
+    std::shared_ptr<LiveMap> map_;
+    uint64_t after_;
+    uint64_t watcher_ = 0;
+  };
+  absl::StatusOr<std::unique_ptr<InstanceWatch>> WatchInstances(
+      const v1::WatchInstancesRequest& request, std::function<void()> wake) const;
+
  private:
+  absl::Status CheckRecognition(const RecognitionConfig& config) const;
   absl::StatusOr<std::shared_ptr<LiveMap>> FindMap(const std::string& name,
                                                    const char* field) const;
 
   v1::Map Describe(const MapRegistry::Listed& listed) const;
+  // Fleet nodes (map_service_fleet.cc). ClaimMap: OK once this node may serve map `id`,
+  // which it then (re)loads from the store if the lease was just taken; the claim's error
+  // otherwise (NotFound, a redirect). SyncWithStore: registers the store's maps not known
+  // here and forgets those deleted by other nodes. Owners: owner of each map, or empty.
+  absl::Status ClaimMap(const std::string& id) const;
+  void SyncWithStore() const;
+  std::map<std::string, MapOwnership::Owner> Owners() const;
   void MaintenanceLoop();
 
   const Options options_;

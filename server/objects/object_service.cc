@@ -216,6 +216,17 @@ absl::StatusOr<v1::ClassifyImageResponse> ObjectService::ClassifyImage(
     if (db->Recognize(features->descriptors.Row(i), &scratch, &p)) {
       ++votes[p.obj_id];
       out.set_verified(out.verified() + 1);
+      if (request.return_matches()) {
+        v1::FeatureMatch* m = out.add_matches();
+        m->set_x(features->keypoints[i].pt.x);
+        m->set_y(features->keypoints[i].pt.y);
+        m->set_object(ObjectName(p.obj_id));
+        m->set_obj_id(p.obj_id);
+        m->mutable_model_point()->set_x(p.point.x());
+        m->mutable_model_point()->set_y(p.point.y());
+        m->mutable_model_point()->set_z(p.point.z());
+        m->set_confidence(p.confidence);
+      }
     }
   }
   std::vector<std::pair<int, uint64_t>> sorted(votes.begin(), votes.end());

@@ -200,8 +200,10 @@ TEST_F(ExportImportTest, WithoutTheJournalAnotherServerGetsTheSameVolumes) {
   EXPECT_EQ(Grid(*there, "maps/src"), Grid(*client_, "maps/src"));
   // The frames came without their records: they count as pruned. The sequences are known,
   // and new frames go on after the imported positions.
-  EXPECT_EQ(there->UpdatePoses(Moved("maps/src", {1})).status().code(),
-            absl::StatusCode::kFailedPrecondition);
+  const auto without_record = there->UpdatePoses(Moved("maps/src", {1}));
+  EXPECT_EQ(without_record.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(std::string(without_record.status().message()),
+              HasSubstr("left out of an export made without its journal"));
   EXPECT_EQ(there->IntegrateFrame(MakeFrame("maps/src", 3, View(3), kVga)).status().code(),
             absl::StatusCode::kAlreadyExists);
   ASSERT_TRUE(there->IntegrateFrame(MakeFrame("maps/src", 6, View(6), kVga)).ok());

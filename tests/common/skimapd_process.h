@@ -92,6 +92,18 @@ class SkimapdProcess {
     return Start();
   }
 
+  // kill -9 without a restart (the data dir stays for Start()).
+  void Kill() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+    pid_ = -1;
+  }
+  // Sends `signal` (e.g. SIGSTOP, SIGCONT) to the running process.
+  void Signal(int signal) {
+    if (pid_ > 0) kill(pid_, signal);
+  }
+
   // SIGTERM, then the exit code (-1 if it died of a signal).
   int Stop() {
     if (pid_ <= 0) return -1;
@@ -118,6 +130,8 @@ class SkimapdProcess {
   }
 
   const std::string& address() const { return address_; }
+  // The process id (-1 when not running).
+  pid_t pid() const { return pid_; }
   // The --data_dir of the process (maps.sqlite, objects.sqlite); empty before Start.
   std::string data_dir() const { return data_dir_.empty() ? "" : data_dir_ + "/data"; }
 

@@ -156,7 +156,8 @@ TEST(PersistenceTest, PrunedFramesAnswerFailedPreconditionNamingThePolicy) {
   EXPECT_EQ(stats.journal_bytes(), 0u);
   auto refused = client->UpdatePoses(MoveFrames("maps/pruned", {0, 2}));
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition);
-  EXPECT_THAT(refused.status().message(), HasSubstr("updates[0].sequence: frame 0 was pruned"));
+  EXPECT_THAT(refused.status().message(), HasSubstr("updates[0].sequence: frame 0 is no longer in "
+                                                    "the journal: pruned by the retention policy"));
   EXPECT_THAT(refused.status().message(), HasSubstr("--journal_retain_mb"));
   const VoxelSet before = Voxels(*client, "maps/pruned");
   // Still so after a restart, and the map (from its snapshot) is whole.

@@ -26,7 +26,7 @@ using testing::TrainView;
 ObjectDatabaseParams Params(const std::string& detector) {
   ObjectDatabaseParams p;
   p.features.detector = detector;
-  p.classes_per_object = 100;
+  p.classes_per_object = 300;
   p.forest.trees = 24;
   p.forest.max_depth = 24;
   return p;
@@ -50,17 +50,20 @@ double FloorAboveChance(double measured, double chance) {
   return chance + (measured - chance) * 2 / 3;
 }
 
-// What HeldOutViewsAreClassifiedToTheRightObject measured on 2026-11-23 (deterministic for
-// the seeds: the same values on every run and thread count). Per object: boxgreen (1),
-// cereal (2), teabox (3); the cereal box repeats its texture on opposite faces.
+// What HeldOutViewsAreClassifiedToTheRightObject measured on 2026-11-24 (deterministic for
+// the seeds: the same values on every run and thread count), with 300 classes per object.
+// Per object: boxgreen (1), cereal (2), teabox (3), each a printed box (every face a
+// different part of its photograph). The cereal box is the hardest: 19 x 28 cm faces hold
+// more voxels than its classes cover, and ORB's verification is loose.
 struct Measured {
   const char* detector;
   double top1, verified;      // all held-out features
   double object_verified[3];  // per object
+  int object_views[3];        // held-out views (of 6) recognised per object
 };
 constexpr Measured kMeasured[] = {
-    {"ORB", 0.687, 0.745, {0.847, 0.610, 0.731}},
-    {"SIFT", 0.732, 0.967, {0.986, 0.939, 0.968}},
+    {"ORB", 0.478, 0.557, {0.645, 0.421, 0.689}, {6, 5, 6}},
+    {"SIFT", 0.572, 0.907, {0.975, 0.819, 0.967}, {6, 6, 6}},
 };
 
 TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
@@ -87,13 +90,13 @@ TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
                   a.obj_id, a.views_correct, a.views, a.VerifiedPrecision());
       EXPECT_EQ(a.views, 6) << detector << " object " << a.obj_id;
       EXPECT_GT(a.features, 0);
-      // Per object, held-out views are recognised (measured: 6/6 for every object and both
-      // detectors; 5/6 keeps above a third's regression, chance reaches it 2 % of the time).
-      EXPECT_GE(a.views_correct, 5) << detector << " object " << a.obj_id;
+      // Per object, held-out views are recognised: one view fewer than measured at most
+      // (chance, 1/3 a view, reaches 4/6 10 % of the time and 5/6 2 %).
+      EXPECT_GE(a.views_correct, m.object_views[i] - 1) << detector << " object " << a.obj_id;
       EXPECT_GE(a.VerifiedPrecision(), FloorAboveChance(m.object_verified[i], kChance))
           << detector << " object " << a.obj_id << " (measured " << m.object_verified[i] << ")";
     }
-    // Floors: ORB top-1 0.569, verified 0.608; SIFT top-1 0.599, verified 0.756.
+    // Floors: ORB top-1 0.430, verified 0.482; SIFT top-1 0.492, verified 0.716.
     EXPECT_GE(total.Top1Rate(), FloorAboveChance(m.top1, kChance)) << detector;
     EXPECT_GE(total.VerifiedPrecision(), FloorAboveChance(m.verified, kChance)) << detector;
   }
@@ -102,7 +105,7 @@ TEST(ObjectPipelineTest, HeldOutViewsAreClassifiedToTheRightObject) {
 TEST(ObjectPipelineTest, ClassesMapBackToTheRightObjectAndVoxel) {
   const ObjectDatabase& db = OrbDatabase();
   const ClassStack& s = db.stack();
-  ASSERT_EQ(s.k(), 100);
+  ASSERT_EQ(s.k(), 300);
   for (uint32_t c = 0; c < s.num_classes(); ++c) {
     if (!s.Valid(c)) continue;
     const StackedVoxel v = s.VoxelOf(c);
@@ -150,19 +153,19 @@ TEST(ObjectPipelineTest, ClassesMapBackToTheRightObjectAndVoxel) {
       chance += double(near) / db.stack().used(1);
     }
   }
-  ASSERT_GE(errors.size(), 415u);  // measured 623 verified predictions (2026-11-23); 2/3
+  ASSERT_GE(errors.size(), 761u);  // measured 1142 verified predictions (2026-11-24); 2/3
   const double hits =
       std::count_if(errors.begin(), errors.end(), [](double e) { return e < 0.02; });
   const double rate = hits / errors.size();
   chance /= errors.size();
-  // Measured 2026-11-23: 36.1 % of verified predictions land within 2 cm of the true point
-  // (the cereal box repeats its texture on opposite faces, which takes most of the rest),
-  // against 3.7 % for a random stacked voxel of the object: 9.8 x chance. Floors: two
-  // thirds of the margin over chance (0.253), and 6.5 x chance (two thirds of 9.8).
+  // Measured 2026-11-24 (printed faces, 300 classes): 57.5 % of verified predictions land
+  // within 2 cm of the true point, against 2.1 % for a random stacked voxel of the object:
+  // 27 x chance. Floors: two thirds of the margin over chance (0.39), and 18 x chance (two
+  // thirds of 27).
   std::printf("[ measured ] within 2 cm: %.3f, chance %.3f (%zu predictions)\n", rate, chance,
               errors.size());
-  EXPECT_GE(rate, FloorAboveChance(0.361, chance));
-  EXPECT_GE(rate, 6.5 * chance) << "chance " << chance;
+  EXPECT_GE(rate, FloorAboveChance(0.575, chance));
+  EXPECT_GE(rate, 18 * chance) << "chance " << chance;
 }
 
 TEST(ObjectPipelineTest, CentroidMemorySaturatesWhileRawDescriptorsGrowLinearly) {
@@ -172,23 +175,24 @@ TEST(ObjectPipelineTest, CentroidMemorySaturatesWhileRawDescriptorsGrowLinearly)
   // of adding memory. Evidence doubles at each step: 3, 6, 12 views of the first orbit
   // (120, 60, 30 degrees apart), then both orbits (24 views).
   //
-  // Measured 2026-11-23 (deterministic), centroid bytes / raw bytes at 3, 6, 12, 24 views:
-  //   boxgreen (1): 17064/26880, 27684/54560, 34668/110144, 43056/241056
-  //     centroids x1.62, x1.25, x1.24 per doubling; x2.52 overall while raw grows x8.97
-  //   teabox (3):   27432/34240, 49932/72000, 79200/140384, 113940/347104
-  //     centroids x1.82, x1.59, x1.44 per doubling; x4.15 overall while raw grows x10.1
-  // (The cereal box, object 2, is left out: its second orbit sees faces the first did not,
-  // 296 -> 468 voxels, and new surface rightly needs new centroids.)
+  // Measured 2026-11-24 (deterministic), centroid bytes / raw bytes at 3, 6, 12, 24 views:
+  //   boxgreen (1): 11160/17920, 20268/36320, 30024/73728, 50508/182176
+  //     centroids x1.82, x1.48, then x1.68 for the variant; x4.53 overall, raw x10.2
+  //   teabox (3):   25344/31008, 52920/67776, 85860/136832, 117756/333312
+  //     centroids x2.09, x1.62, x1.37; x4.65 overall while raw grows x10.7
+  // The variant (the second orbit, 45 degrees up) sees the printed top face the first orbit
+  // barely saw: new surface rightly needs new centroids (the cereal box, object 2, is left
+  // out for the same reason on a larger scale).
   // Bounds, lower is better, 4/3 of the measured values: centroid growth over raw growth
-  // <= 0.375 / 0.546 (proportional growth gives 1); the variant's doubling <= x1.32 /
-  // x1.59 (its excess over 1 times 4/3); and the last doubling grows less than the first.
+  // <= 0.593 / 0.580 (proportional growth gives 1); the variant's doubling <= x1.91 /
+  // x1.49 (its excess over 1 times 4/3); and the last doubling grows less than the first.
   struct Case {
     int obj_id;
     double max_growth_ratio, max_last_growth;
   };
   absl::StatusOr<ObjectDatabaseParams> p = ResolveParams(Params("ORB"));
   ASSERT_TRUE(p.ok());
-  for (const Case& c : {Case{1, 0.375, 1.32}, Case{3, 0.546, 1.59}}) {
+  for (const Case& c : {Case{1, 0.593, 1.91}, Case{3, 0.580, 1.49}}) {
     const std::string dir = absl::StrFormat("%s/train/%06d", MiniDataset(), c.obj_id);
     std::vector<ObjectTrainingStats> steps;
     constexpr std::pair<int, int> kViews[] = {{12, 4}, {12, 2}, {12, 1}, {24, 1}};  // id <, id %

@@ -58,6 +58,43 @@ TEST(RandomForestTest, ClassifiesManyClassesAboveNinetyPercent) {
   EXPECT_GE(correct, 0.98 * test.size());
 }
 
+TEST(RandomForestTest, PredictManyGivesEveryRowsPredict) {
+  std::vector<std::vector<float>> protos;
+  const TrainingSet train = BitPrototypes(50, 10, 64, 0.1, 3, &protos);
+  const TrainingSet test = BitPrototypes(50, 3, 64, 0.1, 4, &protos);
+  absl::StatusOr<RandomForest> f =
+      RandomForest::Train(train, 50, {.trees = 8, .max_depth = 16, .seed = 2});
+  ASSERT_TRUE(f.ok()) << f.status();
+  std::vector<std::vector<ClassScore>> many;
+  f->PredictMany(test.features.data(), test.size(), 3, &many);
+  ASSERT_EQ(many.size(), test.size());
+  std::vector<ClassScore> one;
+  for (size_t i = 0; i < test.size(); ++i) {
+    f->Predict(&test.features[i * test.dims], 3, &one);
+    ASSERT_EQ(many[i].size(), one.size()) << "row " << i;
+    for (size_t k = 0; k < one.size(); ++k) {
+      EXPECT_EQ(many[i][k].cls, one[k].cls) << "row " << i;
+      EXPECT_EQ(many[i][k].confidence, one[k].confidence) << "row " << i;
+    }
+  }
+  // The same on packed bits (the features are 0/1).
+  std::vector<uint8_t> packed(test.size() * 8, 0);
+  for (size_t i = 0; i < test.size(); ++i) {
+    for (int d = 0; d < 64; ++d) {
+      if (test.features[i * 64 + d] > 0.5f) packed[i * 8 + d / 8] |= uint8_t(1 << (d % 8));
+    }
+  }
+  std::vector<std::vector<ClassScore>> bits;
+  f->PredictManyBits(packed.data(), 8, test.size(), 3, &bits);
+  ASSERT_EQ(bits.size(), many.size());
+  for (size_t i = 0; i < many.size(); ++i) {
+    ASSERT_EQ(bits[i].size(), many[i].size());
+    for (size_t k = 0; k < many[i].size(); ++k) EXPECT_EQ(bits[i][k].cls, many[i][k].cls);
+  }
+  f->PredictMany(test.features.data(), 0, 3, &many);
+  EXPECT_TRUE(many.empty());
+}
+
 TEST(RandomForestTest, SameSeedSameForestAndSerializationRoundTrips) {
   std::vector<std::vector<float>> protos;
   const TrainingSet train = BitPrototypes(50, 10, 64, 0.1, 3, &protos);

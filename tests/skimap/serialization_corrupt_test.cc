@@ -199,14 +199,14 @@ TEST(SerializationCorruptTest, HypothesesAndInstancesWithBadCountsOrIdsAreReject
   PutU32(bad, kFirstRecord + kKeyBytes, 1u << 30);
   EXPECT_EQ(Load<HypothesesVoxel>(bad).code(), absl::StatusCode::kDataLoss);
 
-  // Two instances with ids 1 and 2; each is 48 bytes after the voxel's n.
+  // Two instances with ids 1 and 2; each is 96 bytes after the voxel's n.
   InstancesVoxel two({.id = 1, .object_id = 4});
   two += InstancesVoxel({.id = 2, .object_id = 5});
   SkiMap<InstancesVoxel> inst({.resolution = 0.05});
   inst.IntegrateKey({0, 0, 0}, two);
   const std::string bytes = SerializeMap(inst);
   ASSERT_TRUE(DeserializeMap<InstancesVoxel>(bytes, {}).ok());
-  const size_t n_at = kFirstRecord + kKeyBytes, second_id = n_at + 4 + 48;
+  const size_t n_at = kFirstRecord + kKeyBytes, second_id = n_at + 4 + 96;
   bad = bytes;
   PutU64(bad, second_id, 1);  // ids must be unique
   EXPECT_EQ(Load<InstancesVoxel>(bad).code(), absl::StatusCode::kDataLoss);

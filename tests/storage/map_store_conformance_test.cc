@@ -1,6 +1,7 @@
 // The MapStore contract (storage/map_store.h), written once and run against every backend
-// (TEST_P over backend factories; SQLite today, PostgreSQL to follow), plus the SQLite
-// backend's file behaviour: durability across reopen, newer schema refused, corrupt file.
+// (TEST_P over backend factories: SQLite, and PostgreSQL on a real server that this binary
+// starts from Debian's package, tests/common/postgres_server.h), plus the SQLite backend's
+// file behaviour: durability across reopen, newer schema refused, corrupt file.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -13,8 +14,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "storage/fault_injecting_map_store.h"
+#include "storage/postgres_map_store.h"
 #include "storage/sqlite.h"
 #include "storage/sqlite_map_store.h"
+#include "tests/common/postgres_server.h"
 
 namespace skimap::storage {
 namespace {
@@ -30,10 +33,27 @@ struct Backend {
 
 void PrintTo(const Backend& b, std::ostream* os) { *os << b.name; }
 
+// One PostgreSQL server per test process, started on first use and removed at exit; each
+// test directory names its own database (the same directory reopens the same database).
+absl::StatusOr<std::string> PostgresDsn(const std::string& dir) {
+  static skimap::testing::PostgresServer server;
+  static const absl::Status started = server.Start();
+  if (!started.ok()) return started;
+  return server.Dsn(fs::path(dir).filename().string());
+}
+
 std::vector<Backend> Backends() {
-  return {{"sqlite", [](const std::string& dir) -> absl::StatusOr<std::unique_ptr<MapStore>> {
+  return {{"sqlite",
+           [](const std::string& dir) -> absl::StatusOr<std::unique_ptr<MapStore>> {
              absl::StatusOr<std::unique_ptr<SqliteMapStore>> s =
                  SqliteMapStore::Open(dir + "/maps.sqlite");
+             if (!s.ok()) return s.status();
+             return std::unique_ptr<MapStore>(*std::move(s));
+           }},
+          {"postgres", [](const std::string& dir) -> absl::StatusOr<std::unique_ptr<MapStore>> {
+             absl::StatusOr<std::string> dsn = PostgresDsn(dir);
+             if (!dsn.ok()) return dsn.status();
+             absl::StatusOr<std::unique_ptr<PostgresMapStore>> s = PostgresMapStore::Open(*dsn, {});
              if (!s.ok()) return s.status();
              return std::unique_ptr<MapStore>(*std::move(s));
            }}};

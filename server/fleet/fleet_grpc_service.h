@@ -1,0 +1,30 @@
+// GrpcFleetService: the gRPC adapter of skimap.v1.FleetService (fleet.proto) over a
+// FleetNode. Route: ListNodes (unary).
+//
+// Thread safety: stateless apart from the node pointer; safe for concurrent calls.
+#ifndef SERVER_FLEET_FLEET_GRPC_SERVICE_H_
+#define SERVER_FLEET_FLEET_GRPC_SERVICE_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include "server/fleet/fleet_node.h"
+#include "skimap/v1/fleet.grpc.pb.h"
+
+namespace skimap::server {
+
+class GrpcFleetService final : public v1::FleetService::CallbackService {
+ public:
+  // REQUIRES: `node` outlives this service and its calls.
+  explicit GrpcFleetService(FleetNode* node) : node_(node) {}
+
+  grpc::ServerUnaryReactor* ListNodes(grpc::CallbackServerContext* ctx,
+                                      const v1::ListNodesRequest* request,
+                                      v1::ListNodesResponse* response) override;
+
+ private:
+  FleetNode* const node_;
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_FLEET_FLEET_GRPC_SERVICE_H_

@@ -1,0 +1,37 @@
+// RecognitionConfig: a map's effective recognition options (v1::RecognitionOptions with
+// the defaults filled in and validated; docs/recognition.md explains each).
+//
+// Thread safety: plain values and pure functions.
+#ifndef SERVER_MAPS_RECOGNITION_CONFIG_H_
+#define SERVER_MAPS_RECOGNITION_CONFIG_H_
+
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "skimap/v1/instances.pb.h"
+
+namespace skimap::server {
+
+struct RecognitionConfig {
+  bool enabled = false;
+  std::vector<int> obj_ids;  // empty: every object of the classifier
+  double labels_resolution = 0.005, hypotheses_resolution = 0.03, instances_resolution = 0.05;
+  double sphere_distance = 1.0;  // metres along the optical axis; 0 = the scene rule
+  double sphere_radius = 0.6;
+  int triples = 2000;
+  double hough_bin = 0.02;
+  bool every_frame = false;  // policy EVERY_FRAME (else NEWEST)
+  double min_instance_score = 40;
+  double min_instance_fit = 0.35;
+  friend bool operator==(const RecognitionConfig&, const RecognitionConfig&) = default;
+};
+
+// Defaults filled in and validated; InvalidArgument naming the field
+// ("options.recognition.sphere_radius must be in [0.05, 5] metres").
+absl::StatusOr<RecognitionConfig> ResolveRecognitionOptions(const v1::RecognitionOptions& o);
+// Every field set (policy NEWEST or EVERY_FRAME).
+v1::RecognitionOptions ToProto(const RecognitionConfig& c);
+
+}  // namespace skimap::server
+
+#endif  // SERVER_MAPS_RECOGNITION_CONFIG_H_

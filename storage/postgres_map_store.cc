@@ -1,0 +1,350 @@
+// PostgresMapStore: the MapStore calls. The lease calls are in postgres_leases.cc.
+#include "storage/postgres_map_store.h"
+
+#include <algorithm>
+#include <climits>
+
+#include "absl/strings/str_cat.h"
+#include "storage/postgres_schema.h"
+#include "storage/status_macros.h"
+
+namespace skimap::storage {
+namespace {
+
+constexpr char kMapColumns[] =
+    "id, options, last_position, snapshot_position, snapshot_unix_ms, importing";
+constexpr size_t kPage = 256;    // chunks per query when reading a whole snapshot
+constexpr size_t kRecords = 64;  // journal records per query
+
+StoredMap MapAt(const PgResult& r, int row) {
+  return StoredMap{r.Bytes(row, 0),         r.Bytes(row, 1), uint64_t(r.Int(row, 2)),
+                   uint64_t(r.Int(row, 3)), r.Int(row, 4),   r.Bool(row, 5)};
+}
+
+absl::Status NoMap(const std::string& id) {
+  return absl::NotFoundError(absl::StrCat("map store: no map ", id));
+}
+
+int64_t Clamp(size_t v) { return int64_t(std::min<size_t>(v, INT64_MAX)); }
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<PostgresMapStore>> PostgresMapStore::Open(const std::string& dsn,
+                                                                         const Options& options) {
+  // A node paused inside a transaction (SIGSTOP, a partition) holds its row locks, the
+  // lease row's among them, and would keep the other nodes from taking its maps over: the
+  // server ends such a session after a lease time (the node's next statement then fails,
+  // and nothing of the transaction commits).
+  const int64_t idle_ms =
+      options.node_id.empty()
+          ? 60000
+          : std::max<int64_t>(1000, absl::ToInt64Milliseconds(options.lease_ttl));
+  SK_ASSIGN_OR_RETURN(
+      pool, PgPool::Open(dsn, options.connections,
+                         absl::StrCat("SET idle_in_transaction_session_timeout = ", idle_ms)));
+  {
+    PgPool::Lease c = pool->Take();
+    SK_RETURN_IF_ERROR(MigratePostgres(*c));
+  }
+  return std::unique_ptr<PostgresMapStore>(new PostgresMapStore(std::move(pool), options));
+}
+
+absl::Status PostgresMapStore::InTransaction(const std::function<absl::Status(PgConnection&)>& fn) {
+  return InTransaction<bool>("",
+                             [&](PgConnection& c) -> absl::StatusOr<bool> {
+                               SK_RETURN_IF_ERROR(fn(c));
+                               return true;
+                             })
+      .status();
+}
+
+absl::Status PostgresMapStore::CheckFence(PgConnection& c, const std::string& id) {
+  if (options_.node_id.empty()) return absl::OkStatus();
+  int64_t token = 0;
+  {
+    std::lock_guard<std::mutex> lock(fence_mu_);
+    auto it = fences_.find(id);
+    if (it == fences_.end()) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "map store: node ", options_.node_id, " holds no lease on map ", id, "; not written"));
+    }
+    token = it->second.token;
+  }
+  // FOR SHARE: a node taking the lease over (UPDATE of this row) waits for this
+  // transaction, and this one waits for it: the takeover sees every write let through.
+  PgParams p;
+  p.Text(id);
+  SK_ASSIGN_OR_RETURN(r, c.Exec("SELECT node, token FROM leases WHERE map = $1 FOR SHARE", p));
+  if (r.rows() == 1 && r.Bytes(0, 0) == options_.node_id && r.Int(0, 1) == token) {
+    return absl::OkStatus();
+  }
+  DropFence(id);
+  return absl::FailedPreconditionError(absl::StrCat(
+      "map store: node ", options_.node_id, " lost the lease on map ", id, " (fencing token ",
+      token,
+      r.rows() == 1 ? absl::StrCat("; now node ", r.Bytes(0, 0), ", token ", r.Int(0, 1))
+                    : std::string("; lease gone"),
+      "); not written"));
+}
+
+absl::StatusOr<StoredMap> PostgresMapStore::GetMapOn(PgConnection& c, const std::string& id) {
+  PgParams p;
+  p.Text(id);
+  SK_ASSIGN_OR_RETURN(r,
+                      c.Exec(absl::StrCat("SELECT ", kMapColumns, " FROM maps WHERE id = $1"), p));
+  if (r.rows() == 0) return NoMap(id);
+  return MapAt(r, 0);
+}
+
+absl::Status PostgresMapStore::CreateMap(const std::string& id, const std::string& options) {
+  return Insert(id, options, 0, false);
+}
+
+absl::Status PostgresMapStore::BeginImport(const std::string& id, const std::string& options,
+                                           uint64_t journal_base) {
+  return Insert(id, options, journal_base, true);
+}
+
+absl::Status PostgresMapStore::Insert(const std::string& id, const std::string& options,
+                                      uint64_t last_position, bool importing) {
+  if (id.empty()) return absl::InvalidArgumentError("map store: empty map id");
+  if (last_position > uint64_t(INT64_MAX)) {
+    return absl::InvalidArgumentError("map store: journal base beyond 2^63");
+  }
+  const Clock::time_point start = Clock::now();
+  absl::Status s = InTransaction([&](PgConnection& c) -> absl::Status {
+    PgParams p;
+    p.Text(id).Bytes(options).Int(int64_t(last_position)).Bool(importing);
+    absl::StatusOr<PgResult> r = c.Exec(
+        "INSERT INTO maps (id, options, last_position, importing) VALUES ($1, $2, $3, $4)", p);
+    if (absl::IsAlreadyExists(r.status())) {
+      return absl::AlreadyExistsError(absl::StrCat("map store: map ", id, " exists"));
+    }
+    SK_RETURN_IF_ERROR(r.status());
+    if (options_.node_id.empty()) return absl::OkStatus();
+    // A fleet node creates the map holding its lease.
+    PgParams l;
+    l.Text(id).Text(options_.node_id).Int(absl::ToInt64Milliseconds(options_.lease_ttl));
+    return c
+        .Exec(absl::StrCat("INSERT INTO leases (map, node, token, expires_unix_ms) VALUES ($1, "
+                           "$2, 1, ",
+                           kPgNowMs, " + $3)"),
+              l)
+        .status();
+  });
+  if (s.ok() && !options_.node_id.empty())
+    SetFence(id, 1, start + absl::ToChronoNanoseconds(options_.lease_ttl));
+  return s;
+}
+
+absl::Status PostgresMapStore::FinishImport(const std::string& id) {
+  return InTransaction([&](PgConnection& c) -> absl::Status {
+    PgParams p;
+    p.Text(id);
+    SK_ASSIGN_OR_RETURN(r, c.Exec("UPDATE maps SET importing = FALSE WHERE id = $1", p));
+    if (r.affected() == 0) return NoMap(id);
+    return CheckFence(c, id);
+  });
+}
+
+absl::Status PostgresMapStore::DeleteMap(const std::string& id) {
+  absl::Status s = InTransaction([&](PgConnection& c) -> absl::Status {
+    SK_RETURN_IF_ERROR(GetMapOn(c, id).status());
+    SK_RETURN_IF_ERROR(CheckFence(c, id));
+    PgParams p;
+    p.Text(id);
+    // The foreign keys cascade to the journal, the chunks and the lease.
+    SK_ASSIGN_OR_RETURN(r, c.Exec("DELETE FROM maps WHERE id = $1", p));
+    return r.affected() == 0 ? NoMap(id) : absl::OkStatus();
+  });
+  if (s.ok()) DropFence(id);
+  return s;
+}
+
+absl::StatusOr<StoredMap> PostgresMapStore::GetMap(const std::string& id) {
+  PgPool::Lease c = pool_->Take();
+  return GetMapOn(*c, id);
+}
+
+absl::StatusOr<std::vector<StoredMap>> PostgresMapStore::ListMaps() {
+  PgPool::Lease c = pool_->Take();
+  SK_ASSIGN_OR_RETURN(r, c->Exec(absl::StrCat("SELECT ", kMapColumns, " FROM maps ORDER BY id")));
+  std::vector<StoredMap> out;
+  for (int i = 0; i < r.rows(); ++i) out.push_back(MapAt(r, i));
+  return out;
+}
+
+absl::StatusOr<uint64_t> PostgresMapStore::AppendJournal(
+    const std::string& id, const std::vector<JournalRecord>& records) {
+  if (records.empty()) return absl::InvalidArgumentError("map store: no journal record");
+  for (const JournalRecord& r : records) {
+    if (r.kind != JournalRecord::kFrame && r.kind != JournalRecord::kPoseUpdate) {
+      return absl::InvalidArgumentError("map store: unknown journal record kind");
+    }
+  }
+  return InTransaction<uint64_t>("", [&](PgConnection& c) -> absl::StatusOr<uint64_t> {
+    PgParams p;
+    p.Text(id).Int(int64_t(records.size()));
+    // Locks the map's row: appends to one map are numbered one after the other.
+    SK_ASSIGN_OR_RETURN(r, c.Exec("UPDATE maps SET last_position = last_position + $2 WHERE id "
+                                  "= $1 RETURNING last_position",
+                                  p));
+    if (r.rows() == 0) return NoMap(id);
+    SK_RETURN_IF_ERROR(CheckFence(c, id));
+    const uint64_t last = uint64_t(r.Int(0, 0));
+    uint64_t position = last - records.size();
+    for (const JournalRecord& record : records) {
+      PgParams q;
+      q.Text(id).Int(int64_t(++position)).Int(record.kind).Bytes(record.payload);
+      SK_RETURN_IF_ERROR(
+          c.Exec("INSERT INTO journal (map, position, kind, payload) VALUES ($1, $2, $3, $4)", q)
+              .status());
+    }
+    return last;  // durable once the COMMIT returns (synchronous_commit = on)
+  });
+}
+
+absl::Status PostgresMapStore::ReadJournal(
+    const std::string& id, uint64_t after, size_t limit,
+    const std::function<absl::Status(const JournalRecord&)>& fn) {
+  SK_RETURN_IF_ERROR(GetMap(id).status());
+  // In pages: the records of one page are held in memory, not the whole journal.
+  while (limit > 0) {
+    absl::StatusOr<PgResult> r;
+    {
+      PgPool::Lease c = pool_->Take();
+      PgParams p;
+      p.Text(id).Int(Clamp(after)).Int(Clamp(std::min(limit, kRecords)));
+      r = c->Exec(
+          "SELECT position, kind, payload FROM journal WHERE map = $1 AND position > $2 "
+          "ORDER BY position LIMIT $3",
+          p);
+    }
+    if (!r.ok()) return r.status();
+    if (r->rows() == 0) return absl::OkStatus();
+    for (int i = 0; i < r->rows(); ++i) {
+      const int64_t kind = r->Int(i, 1);
+      if (kind != JournalRecord::kFrame && kind != JournalRecord::kPoseUpdate) {
+        return absl::DataLossError(
+            absl::StrCat("map store: map ", id, ": journal record of unknown kind ", kind));
+      }
+      after = uint64_t(r->Int(i, 0));
+      SK_RETURN_IF_ERROR(fn(JournalRecord{JournalRecord::Kind(kind), r->Bytes(i, 2), after}));
+      --limit;
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<JournalRecord> PostgresMapStore::ReadJournalRecord(const std::string& id,
+                                                                  uint64_t position) {
+  std::optional<JournalRecord> found;
+  SK_RETURN_IF_ERROR(
+      ReadJournal(id, position == 0 ? 0 : position - 1, 1, [&](const JournalRecord& r) {
+        if (r.position == position) found = r;
+        return absl::OkStatus();
+      }));
+  if (!found) {
+    return absl::NotFoundError(
+        absl::StrCat("map store: map ", id, ": no journal record at position ", position));
+  }
+  return *std::move(found);
+}
+
+absl::Status PostgresMapStore::PruneJournal(const std::string& id, uint64_t upto) {
+  return InTransaction([&](PgConnection& c) -> absl::Status {
+    SK_RETURN_IF_ERROR(GetMapOn(c, id).status());
+    SK_RETURN_IF_ERROR(CheckFence(c, id));
+    PgParams p;
+    p.Text(id).Int(Clamp(upto));
+    return c.Exec("DELETE FROM journal WHERE map = $1 AND position <= $2", p).status();
+  });
+}
+
+absl::Status PostgresMapStore::WriteSnapshot(const std::string& id, uint64_t covers_position,
+                                             const std::vector<Chunk>& changed,
+                                             const std::vector<ChunkKey>& removed) {
+  return InTransaction([&](PgConnection& c) -> absl::Status {
+    // The map's row is locked only at the end (appends go on while the chunks are written).
+    SK_ASSIGN_OR_RETURN(map, GetMapOn(c, id));
+    if (covers_position < map.snapshot_position || covers_position > map.last_position) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("map store: map ", id, ": a snapshot covering position ", covers_position,
+                       " is outside [", map.snapshot_position, ", ", map.last_position, "]"));
+    }
+    SK_RETURN_IF_ERROR(CheckFence(c, id));
+    for (const Chunk& chunk : changed) {
+      PgParams p;
+      p.Text(id).Text(chunk.key.volume).Int(chunk.key.x).Int(chunk.key.y).Int(chunk.key.z);
+      p.Bytes(chunk.bytes);
+      SK_RETURN_IF_ERROR(c.Exec("INSERT INTO chunks (map, volume, cx, cy, cz, bytes) VALUES ($1, "
+                                "$2, $3, $4, $5, $6) ON CONFLICT (map, volume, cx, cy, cz) DO "
+                                "UPDATE SET bytes = EXCLUDED.bytes",
+                                p)
+                             .status());
+    }
+    for (const ChunkKey& k : removed) {
+      PgParams p;
+      p.Text(id).Text(k.volume).Int(k.x).Int(k.y).Int(k.z);
+      SK_RETURN_IF_ERROR(c.Exec("DELETE FROM chunks WHERE map = $1 AND volume = $2 AND cx = $3 "
+                                "AND cy = $4 AND cz = $5",
+                                p)
+                             .status());
+    }
+    PgParams p;
+    p.Text(id).Int(int64_t(covers_position));
+    SK_ASSIGN_OR_RETURN(
+        r, c.Exec(absl::StrCat("UPDATE maps SET snapshot_position = $2, snapshot_unix_ms = ",
+                               kPgNowMs, " WHERE id = $1 AND snapshot_position <= $2"),
+                  p));
+    if (r.affected() != 1) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "map store: map ", id, ": a newer snapshot was written meanwhile; not written"));
+    }
+    return absl::OkStatus();
+  });
+}
+
+absl::StatusOr<uint64_t> PostgresMapStore::ReadChunks(
+    const std::string& id, std::optional<ChunkKey> after, size_t limit,
+    const std::function<absl::Status(const Chunk&)>& fn) {
+  // One REPEATABLE READ transaction: every page and the position from one snapshot.
+  return InTransaction<uint64_t>(
+      "ISOLATION LEVEL REPEATABLE READ READ ONLY",
+      [&](PgConnection& c) -> absl::StatusOr<uint64_t> {
+        SK_ASSIGN_OR_RETURN(map, GetMapOn(c, id));
+        while (limit > 0) {
+          PgParams p;
+          p.Text(id).Int(Clamp(std::min(limit, kPage)));
+          if (after.has_value()) p.Text(after->volume).Int(after->x).Int(after->y).Int(after->z);
+          SK_ASSIGN_OR_RETURN(
+              r, c.Exec(absl::StrCat("SELECT volume, cx, cy, cz, bytes FROM chunks WHERE map = $1",
+                                     after.has_value() ? " AND (volume, cx, cy, cz) > ($3, $4, "
+                                                         "$5, $6)"
+                                                       : "",
+                                     " ORDER BY volume, cx, cy, cz LIMIT $2"),
+                        p));
+          if (r.rows() == 0) break;
+          for (int i = 0; i < r.rows(); ++i) {
+            Chunk chunk{{r.Bytes(i, 0), r.Int(i, 1), r.Int(i, 2), r.Int(i, 3)}, r.Bytes(i, 4)};
+            SK_RETURN_IF_ERROR(fn(chunk));
+            after = std::move(chunk.key);
+            --limit;
+          }
+        }
+        return map.snapshot_position;
+      });
+}
+
+absl::StatusOr<uint64_t> PostgresMapStore::ReadSnapshot(
+    const std::string& id, const std::function<absl::Status(const Chunk&)>& fn) {
+  return ReadChunks(id, std::nullopt, SIZE_MAX, fn);
+}
+
+absl::StatusOr<uint64_t> PostgresMapStore::ReadSnapshotPage(
+    const std::string& id, const std::optional<ChunkKey>& after, size_t limit,
+    const std::function<absl::Status(const Chunk&)>& fn) {
+  return ReadChunks(id, after, limit, fn);
+}
+
+}  // namespace skimap::storage

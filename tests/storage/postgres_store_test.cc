@@ -1,0 +1,191 @@
+// The PostgreSQL store's fleet side (storage/lease_store.h) on a real server started by the
+// test: leases, fencing of every write by the lease in the same transaction, membership,
+// and the schema version guard. Two store objects with different node ids stand for two
+// skimapd nodes on one database.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "storage/postgres_map_store.h"
+#include "tests/common/postgres_server.h"
+
+namespace skimap::storage {
+namespace {
+
+using ::skimap::testing::PostgresServer;
+
+class PostgresStoreTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    server_ = new PostgresServer();
+    started_ = server_->Start();
+  }
+  static void TearDownTestSuite() { delete server_; }
+  void SetUp() override {
+    ASSERT_TRUE(started_.ok()) << started_;
+    dsn_ = server_->Dsn(absl::StrCat("fleet_", ++count_));
+  }
+  std::unique_ptr<PostgresMapStore> Node(const std::string& id,
+                                         absl::Duration ttl = absl::Seconds(30)) {
+    auto s = PostgresMapStore::Open(dsn_, {.connections = 2, .node_id = id, .lease_ttl = ttl});
+    EXPECT_TRUE(s.ok()) << s.status();
+    return s.ok() ? *std::move(s) : nullptr;
+  }
+  std::vector<uint64_t> Positions(MapStore& store, const std::string& id) {
+    std::vector<uint64_t> out;
+    EXPECT_TRUE(store
+                    .ReadJournal(id, 0, SIZE_MAX,
+                                 [&](const JournalRecord& r) {
+                                   out.push_back(r.position);
+                                   return absl::OkStatus();
+                                 })
+                    .ok());
+    return out;
+  }
+
+  static inline PostgresServer* server_ = nullptr;
+  static inline absl::Status started_;
+  static inline int count_ = 0;
+  std::string dsn_;
+};
+
+TEST_F(PostgresStoreTest, TheCreatorHoldsTheLeaseAndOthersSeeItsAddress) {
+  auto a = Node("node-a"), b = Node("node-b");
+  ASSERT_TRUE(a->Heartbeat("10.0.0.1:50051", absl::Seconds(30)).ok());
+  ASSERT_TRUE(a->CreateMap("m", "o").ok());
+  EXPECT_TRUE(a->HeldLease("m").has_value());
+  EXPECT_FALSE(b->HeldLease("m").has_value());
+  absl::StatusOr<Lease> seen = b->AcquireLease("m", absl::Seconds(30));
+  ASSERT_TRUE(seen.ok()) << seen.status();
+  EXPECT_EQ(seen->node, "node-a");
+  EXPECT_EQ(seen->address, "10.0.0.1:50051");
+  EXPECT_TRUE(seen->live);
+  EXPECT_EQ(seen->token, 1);
+  // b may not write a map it does not hold; a may.
+  absl::Status refused = b->AppendJournal("m", {{JournalRecord::kFrame, "b"}}).status();
+  EXPECT_EQ(refused.code(), absl::StatusCode::kFailedPrecondition) << refused;
+  EXPECT_EQ(b->WriteSnapshot("m", 0, {}, {}).code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(b->DeleteMap("m").code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(*a->AppendJournal("m", {{JournalRecord::kFrame, "a"}}), 1u);
+  EXPECT_EQ(b->AcquireLease("nope", absl::Seconds(1)).status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST_F(PostgresStoreTest, AnExpiredLeaseIsTakenOverAndTheOldHoldersWritesAreFenced) {
+  auto a = Node("node-a", absl::Milliseconds(300)), b = Node("node-b");
+  ASSERT_TRUE(a->CreateMap("m", "").ok());
+  ASSERT_TRUE(a->AppendJournal("m", {{JournalRecord::kFrame, "1"}}).ok());
+  absl::SleepFor(absl::Milliseconds(400));  // a is paused past its lease
+  absl::StatusOr<Lease> taken = b->AcquireLease("m", absl::Seconds(30));
+  ASSERT_TRUE(taken.ok()) << taken.status();
+  EXPECT_EQ(taken->node, "node-b");
+  EXPECT_EQ(taken->token, 2);
+  ASSERT_TRUE(b->HeldLease("m").has_value());
+  // a resumes: every write is refused and changes nothing.
+  absl::Status s = a->AppendJournal("m", {{JournalRecord::kFrame, "stale"}}).status();
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition) << s;
+  EXPECT_NE(s.message().find("lost the lease"), std::string::npos) << s;
+  EXPECT_EQ(a->WriteSnapshot("m", 1, {{{"rgb", 0, 0, 0}, "X"}}, {}).code(),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(a->PruneJournal("m", 1).code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(Positions(*b, "m"), std::vector<uint64_t>{1});
+  EXPECT_EQ(b->GetMap("m")->snapshot_position, 0u);
+  EXPECT_EQ(*b->AppendJournal("m", {{JournalRecord::kFrame, "2"}}), 2u);
+  // a's heartbeat does not renew what it lost.
+  auto lost = a->Heartbeat("a:1", absl::Seconds(30));
+  ASSERT_TRUE(lost.ok()) << lost.status();
+  EXPECT_TRUE(lost->empty());  // the failed write dropped the fence already
+  EXPECT_EQ(b->AcquireLease("m", absl::Seconds(30))->node, "node-b");
+}
+
+TEST_F(PostgresStoreTest, HeartbeatRenewsHeldLeasesAndReportsLostOnes) {
+  auto a = Node("node-a", absl::Milliseconds(300)), b = Node("node-b");
+  ASSERT_TRUE(a->CreateMap("kept", "").ok());
+  ASSERT_TRUE(a->CreateMap("lost", "").ok());
+  for (int i = 0; i < 4; ++i) {  // renewed past several ttls
+    absl::SleepFor(absl::Milliseconds(150));
+    auto lost = a->Heartbeat("a:1", absl::Milliseconds(300));
+    ASSERT_TRUE(lost.ok()) << lost.status();
+    EXPECT_TRUE(lost->empty());
+  }
+  EXPECT_EQ(b->AcquireLease("kept", absl::Seconds(1))->node, "node-a");
+  absl::SleepFor(absl::Milliseconds(400));
+  ASSERT_EQ(b->AcquireLease("lost", absl::Seconds(30))->node, "node-b");
+  auto lost = a->Heartbeat("a:1", absl::Milliseconds(300));
+  ASSERT_TRUE(lost.ok());
+  EXPECT_EQ(*lost, std::vector<std::string>{"lost"});
+  EXPECT_FALSE(a->HeldLease("lost").has_value());
+  EXPECT_TRUE(a->HeldLease("kept").has_value());  // expired but nobody took it: renewed
+  EXPECT_TRUE(a->AppendJournal("kept", {{JournalRecord::kFrame, "k"}}).ok());
+}
+
+TEST_F(PostgresStoreTest, NoAppendCommitsAfterATakeover) {
+  // a appends as fast as it can while b takes the lease over: every append a was told
+  // succeeded is in the journal, before b's first record, and none after the takeover.
+  auto a = Node("node-a", absl::Milliseconds(200)), b = Node("node-b");
+  ASSERT_TRUE(a->CreateMap("m", "").ok());
+  std::atomic<bool> stop{false};
+  std::vector<uint64_t> acked;
+  std::thread writer([&] {
+    while (!stop.load()) {
+      absl::StatusOr<uint64_t> p = a->AppendJournal("m", {{JournalRecord::kFrame, "a"}});
+      if (p.ok()) acked.push_back(*p);
+    }
+  });
+  absl::StatusOr<Lease> taken;
+  do {  // a's lease runs out (a writes but never renews)
+    absl::SleepFor(absl::Milliseconds(20));
+    taken = b->AcquireLease("m", absl::Seconds(30));
+  } while (taken.ok() && taken->node != "node-b");
+  ASSERT_TRUE(taken.ok()) << taken.status();
+  absl::StatusOr<uint64_t> first_b = b->AppendJournal("m", {{JournalRecord::kFrame, "b"}});
+  absl::SleepFor(absl::Milliseconds(100));
+  stop = true;
+  writer.join();
+  ASSERT_TRUE(first_b.ok()) << first_b.status();
+  ASSERT_FALSE(acked.empty());
+  EXPECT_LT(acked.back(), *first_b);
+  std::vector<uint64_t> expected = acked;
+  expected.push_back(*first_b);
+  EXPECT_EQ(Positions(*b, "m"), expected);
+}
+
+TEST_F(PostgresStoreTest, NodesRegisterAndLeaveReleasingTheirLeases) {
+  auto a = Node("node-a"), b = Node("node-b");
+  ASSERT_TRUE(a->Heartbeat("127.0.0.1:1", absl::Seconds(30)).ok());
+  ASSERT_TRUE(b->Heartbeat("127.0.0.1:2", absl::Seconds(30)).ok());
+  ASSERT_TRUE(a->CreateMap("m", "").ok());
+  auto nodes = b->ListNodes(absl::Minutes(10));
+  ASSERT_TRUE(nodes.ok()) << nodes.status();
+  ASSERT_EQ(nodes->size(), 2u);
+  EXPECT_EQ((*nodes)[0].id, "node-a");
+  EXPECT_EQ((*nodes)[0].address, "127.0.0.1:1");
+  EXPECT_TRUE((*nodes)[0].live);
+  auto leases = b->ListLeases();
+  ASSERT_TRUE(leases.ok());
+  ASSERT_EQ(leases->size(), 1u);
+  EXPECT_EQ((*leases)[0].node, "node-a");
+  ASSERT_TRUE(a->Leave().ok());
+  EXPECT_EQ(b->ListNodes(absl::Minutes(10))->size(), 1u);
+  EXPECT_EQ(b->AcquireLease("m", absl::Seconds(30))->node, "node-b");  // at once
+  EXPECT_EQ(a->AppendJournal("m", {{JournalRecord::kFrame, "x"}}).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+TEST_F(PostgresStoreTest, ADatabaseOfANewerSchemaIsRefused) {
+  ASSERT_NE(Node("node-a"), nullptr);
+  auto c = PgConnection::Connect(dsn_);
+  ASSERT_TRUE(c.ok());
+  ASSERT_TRUE((*c)->ExecScript("INSERT INTO schema_version VALUES (99, 'future', 0)").ok());
+  auto s = PostgresMapStore::Open(dsn_, {});
+  EXPECT_EQ(s.status().code(), absl::StatusCode::kFailedPrecondition) << s.status();
+}
+
+TEST_F(PostgresStoreTest, AnUnreachableServerIsUnavailable) {
+  auto s = PostgresMapStore::Open("postgresql://skimap@127.0.0.1:1/x?connect_timeout=2", {});
+  EXPECT_EQ(s.status().code(), absl::StatusCode::kUnavailable) << s.status();
+}
+
+}  // namespace
+}  // namespace skimap::storage
