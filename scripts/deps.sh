@@ -7,7 +7,7 @@ pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libeigen3-dev libopencv-dev libsqlite3-dev libzstd-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
-  libpq-dev postgresql)
+  clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql)
 if [[ "${1:-}" == "--bench" ]]; then
   pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev)
 fi
@@ -23,3 +23,14 @@ if ((${#missing[@]})); then
 fi
 # postgresql: the PostgreSQL tests start throwaway servers of their own
 # (tests/common/postgres_server.h); the package's default cluster is not used.
+# Node.js for the third-party client test (tests/clients/node): Debian's unless a node is
+# already installed; its npm packages exactly as the committed package-lock.json says.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+fi
+node_client="$(dirname "$0")/../tests/clients/node"
+if [[ ! -d "$node_client/node_modules" || "$node_client/package-lock.json" -nt "$node_client/node_modules" ]]; then
+  (cd "$node_client" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
+fi

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite: installs dependencies, checks formatting, builds and runs every
-# test (release build), the data-structure tests again under ASan+UBSan and the
-# concurrency tests under ThreadSanitizer.
+# test (release build); builds everything again with clang under ASan+UBSan (compiling
+# with -Werror=thread-safety checks the lock annotations), runs the whole suite there and
+# every fuzz target briefly (SKIMAP_FUZZ_SECONDS each, default 20); then the concurrency
+# tests under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh
@@ -9,7 +11,11 @@ bash scripts/check_format.sh
 jobs=$(nproc)
 bash scripts/build.sh release
 (cd build/release && ctest --output-on-failure -j "$jobs" --timeout 600)
-bash scripts/build.sh asan skimap_test
-(cd build/asan && ctest --output-on-failure -R '^(SkipList|SkiMap|Voxel|RGB|MultiLabel|Hypotheses|Instances|Serialization|MapQueries)' --timeout 600)
+bash scripts/build.sh asan
+# The whole suite under ASan+UBSan (halt on the first report), the fuzz targets apart.
+(cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --output-on-failure -j "$jobs" -LE fuzz --timeout 900)
+(cd build/asan && ctest --output-on-failure -j "$jobs" -L fuzz --timeout 900)
 bash scripts/build.sh tsan skimap_concurrency_test skimap_server_concurrency_test
 (cd build/tsan && TSAN_OPTIONS=halt_on_error=1 ctest --output-on-failure -L concurrency --timeout 900)

@@ -4,6 +4,8 @@
 //           [--worker_threads=2] [--max_message_mb=80] [--max_in_flight=8]
 //           [--queue_capacity=64] [--dataset_root=DIR] [--lazy_load]
 //           [--memory_budget_mb=0] [--snapshot_interval_s=10] [--journal_retain_mb=1024]
+//           [--max_maps=1000] [--max_map_voxels=0] [--max_frame_pixels=0]
+//           [--max_streams_per_client=16]
 //           [--store=postgresql://user@host:port/db [--advertise_address=HOST:PORT]
 //            [--lease_ttl_ms=6000]]
 //
@@ -52,6 +54,16 @@ ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
 ABSL_FLAG(int, queue_capacity, 64, "queued writes per map before RESOURCE_EXHAUSTED");
+ABSL_FLAG(int, max_maps, 1000, "maps per server; CreateMap / ImportMap beyond: RESOURCE_EXHAUSTED");
+ABSL_FLAG(int64_t, max_map_voxels, 0,
+          "voxels per map; a map holding this many refuses further frames with "
+          "RESOURCE_EXHAUSTED; 0 = no limit");
+ABSL_FLAG(int64_t, max_frame_pixels, 0,
+          "pixels per frame (width x height); larger frames: RESOURCE_EXHAUSTED; 0 = only the "
+          "API's 8192 x 8192");
+ABSL_FLAG(int, max_streams_per_client, 16,
+          "open StreamFrames calls per client (peer address); the next: RESOURCE_EXHAUSTED; "
+          "0 = no limit");
 ABSL_FLAG(bool, lazy_load, false,
           "load each stored map on its first use instead of all of them at start");
 ABSL_FLAG(int64_t, memory_budget_mb, 0,
@@ -87,7 +99,9 @@ int main(int argc, char** argv) {
   if (max_message_mb < 1 || max_message_mb > 1024 || absl::GetFlag(FLAGS_worker_threads) < 0 ||
       absl::GetFlag(FLAGS_max_in_flight) < 1 || absl::GetFlag(FLAGS_queue_capacity) < 1 ||
       absl::GetFlag(FLAGS_memory_budget_mb) < 0 || absl::GetFlag(FLAGS_snapshot_interval_s) < 1 ||
-      absl::GetFlag(FLAGS_journal_retain_mb) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100) {
+      absl::GetFlag(FLAGS_journal_retain_mb) < 0 || absl::GetFlag(FLAGS_max_maps) < 1 ||
+      absl::GetFlag(FLAGS_max_map_voxels) < 0 || absl::GetFlag(FLAGS_max_frame_pixels) < 0 ||
+      absl::GetFlag(FLAGS_max_streams_per_client) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100) {
     std::fprintf(stderr, "skimapd: flag out of range (see --help)\n");
     return 2;
   }
@@ -104,6 +118,10 @@ int main(int argc, char** argv) {
   options.service.snapshot_interval = absl::Seconds(absl::GetFlag(FLAGS_snapshot_interval_s));
   options.service.journal_retain_bytes = uint64_t(absl::GetFlag(FLAGS_journal_retain_mb)) << 20;
   options.grpc.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
+  options.grpc.max_streams_per_client = absl::GetFlag(FLAGS_max_streams_per_client);
+  options.service.max_maps = size_t(absl::GetFlag(FLAGS_max_maps));
+  options.service.max_map_voxels = uint64_t(absl::GetFlag(FLAGS_max_map_voxels));
+  options.service.max_frame_pixels = uint64_t(absl::GetFlag(FLAGS_max_frame_pixels));
   options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
   options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();
   std::unique_ptr<skimap::server::Fleet> fleet;  // outlives the server

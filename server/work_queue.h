@@ -13,16 +13,16 @@
 #ifndef SERVER_WORK_QUEUE_H_
 #define SERVER_WORK_QUEUE_H_
 
-#include <condition_variable>
 #include <cstddef>
 #include <cstdlib>
 #include <deque>
 #include <functional>
 #include <future>
 #include <memory>
-#include <mutex>
 #include <thread>
 #include <vector>
+
+#include "skimap/mutex.h"
 
 namespace skimap::server {
 
@@ -53,11 +53,11 @@ class WorkQueue {
   void Loop();
 
   const size_t capacity_;
-  // std::mutex, not absl::Mutex: Debian's Abseil is not TSan-instrumented (skimap/rw_lock.h).
-  mutable std::mutex mu_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> tasks_;  // guarded by mu_
-  bool stopping_ = false;                    // guarded by mu_
+  // skimap::Mutex (std::mutex), not absl::Mutex: Debian's Abseil is not TSan-instrumented.
+  mutable Mutex mu_;
+  CondVar cv_;
+  std::deque<std::function<void()>> tasks_ ABSL_GUARDED_BY(mu_);
+  bool stopping_ ABSL_GUARDED_BY(mu_) = false;
   std::vector<std::thread> threads_;
 };
 

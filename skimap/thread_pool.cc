@@ -8,10 +8,10 @@ ThreadPool::ThreadPool(int workers) : worker_count_(workers > 0 ? workers : 0) {
 
 ThreadPool::~ThreadPool() {
   {
-    std::lock_guard lock(mu_);
+    MutexLock lock(&mu_);
     stop_ = true;
   }
-  work_cv_.notify_all();
+  work_cv_.SignalAll();
   for (std::thread& t : threads_) t.join();
 }
 
@@ -22,19 +22,19 @@ void ThreadPool::ParallelFor(size_t n, const std::function<void(size_t, size_t)>
     fn(0, n);
     return;
   }
-  std::lock_guard call_lock(call_mu_);
+  MutexLock call_lock(&call_mu_);
   {
-    std::lock_guard lock(mu_);
+    MutexLock lock(&mu_);
     fn_ = &fn;
     n_ = n;
     pending_ = worker_count_;
     ++generation_;
   }
-  work_cv_.notify_all();
+  work_cv_.SignalAll();
   // The caller takes the last piece.
   fn((pieces - 1) * n / pieces, n);
-  std::unique_lock lock(mu_);
-  done_cv_.wait(lock, [&] { return pending_ == 0; });
+  MutexLock lock(&mu_);
+  while (pending_ != 0) done_cv_.Wait(&mu_);
   fn_ = nullptr;
 }
 
@@ -44,8 +44,8 @@ void ThreadPool::WorkerLoop(size_t index) {
     const std::function<void(size_t, size_t)>* fn;
     size_t n;
     {
-      std::unique_lock lock(mu_);
-      work_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      MutexLock lock(&mu_);
+      while (!stop_ && generation_ == seen) work_cv_.Wait(&mu_);
       if (stop_) return;
       seen = generation_;
       fn = fn_;
@@ -54,8 +54,8 @@ void ThreadPool::WorkerLoop(size_t index) {
     const size_t pieces = worker_count_ + 1;
     (*fn)(index * n / pieces, (index + 1) * n / pieces);
     {
-      std::lock_guard lock(mu_);
-      if (--pending_ == 0) done_cv_.notify_one();
+      MutexLock lock(&mu_);
+      if (--pending_ == 0) done_cv_.Signal();
     }
   }
 }

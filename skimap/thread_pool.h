@@ -10,12 +10,13 @@
 #ifndef SKIMAP_THREAD_POOL_H_
 #define SKIMAP_THREAD_POOL_H_
 
-#include <condition_variable>
 #include <cstddef>
 #include <functional>
-#include <mutex>
 #include <thread>
 #include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "skimap/mutex.h"
 
 namespace skimap {
 
@@ -35,15 +36,15 @@ class ThreadPool {
  private:
   void WorkerLoop(size_t index);
 
-  std::mutex call_mu_;  // serializes ParallelFor calls
-  std::mutex mu_;
-  std::condition_variable work_cv_;
-  std::condition_variable done_cv_;
-  const std::function<void(size_t, size_t)>* fn_ = nullptr;  // guarded by mu_
-  size_t n_ = 0;                                             // guarded by mu_
-  size_t generation_ = 0;                                    // guarded by mu_
-  size_t pending_ = 0;                                       // guarded by mu_
-  bool stop_ = false;                                        // guarded by mu_
+  Mutex call_mu_ ABSL_ACQUIRED_BEFORE(mu_);  // serializes ParallelFor calls
+  Mutex mu_;
+  CondVar work_cv_;
+  CondVar done_cv_;
+  const std::function<void(size_t, size_t)>* fn_ ABSL_GUARDED_BY(mu_) = nullptr;
+  size_t n_ ABSL_GUARDED_BY(mu_) = 0;
+  size_t generation_ ABSL_GUARDED_BY(mu_) = 0;
+  size_t pending_ ABSL_GUARDED_BY(mu_) = 0;
+  bool stop_ ABSL_GUARDED_BY(mu_) = false;
   const size_t worker_count_;
   std::vector<std::thread> threads_;
 };

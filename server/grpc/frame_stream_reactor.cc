@@ -6,8 +6,9 @@
 
 namespace skimap::server {
 
-FrameStreamReactor::FrameStreamReactor(MapService* core, int max_in_flight)
-    : core_(core), max_in_flight_(max_in_flight < 1 ? 1 : max_in_flight) {
+FrameStreamReactor::FrameStreamReactor(MapService* core, int max_in_flight,
+                                       StreamLimiter::Slot slot)
+    : core_(core), max_in_flight_(max_in_flight < 1 ? 1 : max_in_flight), slot_(std::move(slot)) {
   Step();
 }
 

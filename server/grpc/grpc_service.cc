@@ -42,6 +42,13 @@ class VoxelPageWriter final : public grpc::ServerWriteReactor<v1::GetVoxelsRespo
   v1::GetVoxelsResponse page_;
 };
 
+// A StreamFrames call refused before it starts: finishes at once with `status`.
+class RefusedFrameStream final : public grpc::ServerBidiReactor<v1::Frame, v1::FrameAck> {
+ public:
+  explicit RefusedFrameStream(const grpc::Status& status) { Finish(status); }
+  void OnDone() override { delete this; }
+};
+
 }  // namespace
 
 ServerUnaryReactor* GrpcMapService::CreateMap(CallbackServerContext* ctx,
@@ -71,7 +78,9 @@ ServerUnaryReactor* GrpcMapService::DeleteMap(CallbackServerContext* ctx,
 
 grpc::ServerBidiReactor<v1::Frame, v1::FrameAck>* GrpcMapService::StreamFrames(
     CallbackServerContext* ctx) {
-  return new FrameStreamReactor(core_, options_.max_in_flight);
+  absl::StatusOr<StreamLimiter::Slot> slot = streams_.Acquire(ctx->peer());
+  if (!slot.ok()) return new RefusedFrameStream(ToGrpcStatus(slot.status()));
+  return new FrameStreamReactor(core_, options_.max_in_flight, *std::move(slot));
 }
 
 ServerUnaryReactor* GrpcMapService::IntegrateFrame(CallbackServerContext* ctx,

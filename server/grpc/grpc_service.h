@@ -18,6 +18,7 @@
 
 #include <algorithm>
 
+#include "server/grpc/stream_limiter.h"
 #include "server/maps/map_service.h"
 #include "server/work_queue.h"
 #include "skimap/v1/map_service.grpc.pb.h"
@@ -29,11 +30,15 @@ class GrpcMapService final : public v1::MapService::CallbackService {
   struct Options {
     int max_in_flight = 8;     // unacknowledged frames per StreamFrames call
     int transfer_threads = 2;  // threads for the store work of ExportMap / ImportMap
+    // Open StreamFrames calls per client (peer address without port); the next one is
+    // refused with RESOURCE_EXHAUSTED (stream_limiter.h). 0 = no limit.
+    int max_streams_per_client = 0;
   };
   // REQUIRES: core outlives this service; the service outlives every call it started.
   GrpcMapService(MapService* core, const Options& options)
       : core_(core),
         options_(options),
+        streams_(options.max_streams_per_client),
         blocking_({.capacity = 1, .threads = std::max(1, options.transfer_threads)}) {}
 
   grpc::ServerUnaryReactor* CreateMap(grpc::CallbackServerContext* ctx,
@@ -85,6 +90,7 @@ class GrpcMapService final : public v1::MapService::CallbackService {
  private:
   MapService* const core_;
   const Options options_;
+  StreamLimiter streams_;
   WorkQueue blocking_;  // ExportMap / ImportMap steps (unbounded: one step per open call)
 };
 

@@ -46,6 +46,10 @@ struct LiveMap::Capture {
 
 namespace {
 
+// Tells clang's thread-safety analysis that `mu` is held exclusively, in callbacks that run
+// under it; checks nothing at run time.
+void AssumeHeld(const RwLock& mu) ABSL_ASSERT_EXCLUSIVE_LOCK(mu) {}
+
 constexpr char kFramesVolume[] = "frames";  // chunk volume name of the frame index
 constexpr size_t kReplayBatch = 64;         // journal records read per store call
 
@@ -192,6 +196,7 @@ absl::Status LiveMap::LoadSnapshotOnWorker() {
   {
     WriterLock lock(&snapshot_mu_);
     covered = store.ReadSnapshot(id_, [&](const storage::Chunk& c) -> absl::Status {
+      AssumeHeld(snapshot_mu_);  // ReadSnapshot calls back here, under the lock above
       if (c.key.volume == kFramesVolume) {
         absl::Status s = index_.DecodeBucket(c.key.x, c.bytes);
         return s.ok() ? s : chunk_error(c.key, s);
@@ -534,9 +539,9 @@ absl::Status LiveMap::SnapshotLocked() {
     // Pending again: the next snapshot writes these chunks (with their newer content).
     {
       WriterLock lock(&snapshot_mu_);
-      for (const auto& [name, coord] : c->coords) {
+      for (const auto& entry : c->coords) {  // (volume, chunk); clang 14 cannot capture bindings
         state_.ForEachVolume([&](const char* n, auto&, DirtyChunks& dirty) {
-          if (name == n) dirty.insert(coord);
+          if (entry.first == n) dirty.insert(entry.second);
         });
       }
       if (c->meta) state_.recognition.meta_dirty = true;

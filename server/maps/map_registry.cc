@@ -31,7 +31,9 @@ absl::Status MapRegistry::CheckRoom(const std::string& id) const {
   }
   if (maps_.size() + reserved_.size() >= options_.max_maps) {
     return absl::ResourceExhaustedError(
-        absl::StrCat("at most ", options_.max_maps, " maps per server"));
+        absl::StrCat("map ", MapName(id), " not created: the server holds ", maps_.size(),
+                     " maps (and ", reserved_.size(), " imports), the limit is ", options_.max_maps,
+                     " maps per server (skimapd --max_maps)"));
   }
   return absl::OkStatus();
 }

@@ -1,6 +1,7 @@
 // MapService: maps and frames. Queries are in map_service_queries.cc.
 #include "server/maps/map_service.h"
 
+#include <chrono>
 #include <cstdio>
 #include <utility>
 
@@ -38,10 +39,10 @@ MapService::MapService(const Options& options)
 MapService::~MapService() {
   if (maintenance_.joinable()) {
     {
-      std::lock_guard<std::mutex> lock(maintenance_mu_);
+      MutexLock lock(&maintenance_mu_);
       stopping_ = true;
     }
-    maintenance_cv_.notify_all();
+    maintenance_cv_.SignalAll();
     maintenance_.join();
   }
   // A last snapshot makes the next start replay nothing (recognition finished first).
@@ -54,14 +55,17 @@ MapService::~MapService() {
 void MapService::MaintenanceLoop() {
   const absl::Duration tick = std::min(options_.snapshot_interval, absl::Seconds(1));
   absl::Time last_full = absl::Now();
-  std::unique_lock<std::mutex> lock(maintenance_mu_);
-  while (!maintenance_cv_.wait_for(lock, absl::ToChronoMilliseconds(tick),
-                                   [this] { return stopping_; })) {
-    lock.unlock();
+  MutexLock lock(&maintenance_mu_);
+  for (;;) {
+    const auto wake = std::chrono::steady_clock::now() + absl::ToChronoMilliseconds(tick);
+    while (!stopping_ && maintenance_cv_.WaitUntil(&maintenance_mu_, wake)) {
+    }
+    if (stopping_) return;
+    lock.Unlock();
     const bool due = absl::Now() - last_full >= options_.snapshot_interval;
     registry_.Maintain(due ? 1 : options_.snapshot_records);
     if (due) last_full = absl::Now();
-    lock.lock();
+    lock.Lock();
   }
 }
 
@@ -236,11 +240,28 @@ absl::Status MapService::DeleteMap(const v1::DeleteMapRequest& request) {
 void MapService::IntegrateFrame(std::shared_ptr<const v1::Frame> frame, LiveMap::FrameDone done) {
   const size_t bytes = frame->depth().size() + frame->color().size();
   if (bytes > options_.max_frame_bytes) {
-    return done(absl::ResourceExhaustedError(absl::StrCat(
-        "depth+color: frame images are ", bytes, " bytes, limit ", options_.max_frame_bytes)));
+    return done(absl::ResourceExhaustedError(
+        absl::StrCat("depth+color: frame images are ", bytes, " bytes, limit ",
+                     options_.max_frame_bytes, " (80 % of skimapd --max_message_mb)")));
+  }
+  const uint64_t pixels = uint64_t{frame->intrinsics().width()} * frame->intrinsics().height();
+  if (options_.max_frame_pixels > 0 && pixels > options_.max_frame_pixels) {
+    return done(absl::ResourceExhaustedError(
+        absl::StrCat("intrinsics: ", frame->intrinsics().width(), " x ",
+                     frame->intrinsics().height(), " pixels exceed the limit of ",
+                     options_.max_frame_pixels, " pixels per frame (skimapd --max_frame_pixels)")));
   }
   absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(frame->map(), "map");
   if (!map.ok()) return done(map.status());
+  if (options_.max_map_voxels > 0) {
+    const uint64_t voxels =
+        (*map)->Read([](const MapState& s) { return s.rgb.size() + s.free.size(); });
+    if (voxels >= options_.max_map_voxels) {
+      return done(absl::ResourceExhaustedError(absl::StrCat(
+          "map ", MapName((*map)->id()), " holds ", voxels, " voxels, the limit is ",
+          options_.max_map_voxels, " per map (skimapd --max_map_voxels); frame not integrated")));
+    }
+  }
   (*map)->SubmitFrame(std::move(frame), std::move(done));
 }
 

@@ -11,10 +11,8 @@
 #ifndef SERVER_MAPS_MAP_SERVICE_H_
 #define SERVER_MAPS_MAP_SERVICE_H_
 
-#include <condition_variable>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -24,6 +22,7 @@
 #include "server/maps/map_importer.h"
 #include "server/maps/map_ownership.h"
 #include "server/maps/map_registry.h"
+#include "skimap/mutex.h"
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
 #include "skimap/v1/instances.pb.h"
@@ -39,8 +38,15 @@ class MapService {
     int worker_threads = 2;             // integration threads shared by all maps (0 = inline)
     size_t queue_capacity = 64;         // queued writes per map
     size_t max_frame_bytes = 64 << 20;  // encoded depth + colour; larger: ResourceExhausted
+    // Largest frame in pixels (intrinsics width x height); larger: ResourceExhausted
+    // naming skimapd --max_frame_pixels. 0 = only the API's 8192 x 8192.
+    uint64_t max_frame_pixels = 0;
+    // A map holding this many voxels (RGB and free-space volumes together) refuses further
+    // frames with ResourceExhausted naming skimapd --max_map_voxels; checked before each
+    // frame, so a frame that starts below the limit is integrated whole. 0 = no limit.
+    uint64_t max_map_voxels = 0;
     size_t max_kept_frame_bytes = size_t{1} << 30;  // per map, for UpdatePoses
-    size_t max_maps = 1000;
+    size_t max_maps = 1000;  // maps per server (ResourceExhausted naming --max_maps)
     // Largest reply (the transport's message limit): grids and height maps that would not
     // fit are refused with ResourceExhausted before they are computed.
     size_t max_reply_bytes = 80 << 20;
@@ -152,9 +158,9 @@ class MapService {
   std::unique_ptr<ThreadPool> pool_;
   mutable MapRegistry registry_;  // mutable: a const query may load a map
 
-  std::mutex maintenance_mu_;
-  std::condition_variable maintenance_cv_;
-  bool stopping_ = false;  // guarded by maintenance_mu_
+  Mutex maintenance_mu_;
+  CondVar maintenance_cv_;
+  bool stopping_ ABSL_GUARDED_BY(maintenance_mu_) = false;
   std::thread maintenance_;
 };
 

@@ -15,18 +15,18 @@ OperationTable::OperationTable(const Options& options)
 OperationTable::~OperationTable() {
   std::vector<std::pair<WaitDone, v1::Operation>> answers;
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    MutexLock lock(&mu_);
     stopping_ = true;
     for (Waiter& w : waiters_) answers.emplace_back(std::move(w.done), Snapshot(ops_.at(w.name)));
     waiters_.clear();
   }
-  cv_.notify_all();
+  cv_.SignalAll();
   timer_.join();
   for (auto& [done, op] : answers) done(std::move(op));
 }
 
 std::string OperationTable::Start(const std::string& kind) {
-  std::lock_guard<std::mutex> lock(mu_);
+  MutexLock lock(&mu_);
   const std::string name = absl::StrCat("operations/", next_id_++);
   Entry& e = ops_[name];
   e.start = absl::Now();
@@ -38,7 +38,7 @@ std::string OperationTable::Start(const std::string& kind) {
 }
 
 void OperationTable::SetProgress(const std::string& name, const v1::OperationProgress& progress) {
-  std::lock_guard<std::mutex> lock(mu_);
+  MutexLock lock(&mu_);
   auto it = ops_.find(name);
   if (it != ops_.end() && !it->second.op.done()) *it->second.op.mutable_progress() = progress;
 }
@@ -47,7 +47,7 @@ void OperationTable::Finish(const std::string& name, const absl::Status& status,
                             const std::function<void(v1::Operation*)>& fill_result) {
   std::vector<std::pair<WaitDone, v1::Operation>> answers;
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    MutexLock lock(&mu_);
     auto it = ops_.find(name);
     if (it == ops_.end() || it->second.op.done()) return;
     Entry& e = it->second;
@@ -70,8 +70,9 @@ void OperationTable::Finish(const std::string& name, const absl::Status& status,
     waiters_.erase(waiting, waiters_.end());
     finished_.push_back(name);
     while (finished_.size() > options_.max_finished) {
+      const std::string& oldest = finished_.front();
       const bool waited = std::any_of(waiters_.begin(), waiters_.end(),
-                                      [&](const Waiter& w) { return w.name == finished_.front(); });
+                                      [&](const Waiter& w) { return w.name == oldest; });
       if (waited) break;  // cannot happen (waiters of finished ops were answered); be safe
       ops_.erase(finished_.front());
       finished_.pop_front();
@@ -96,7 +97,7 @@ absl::StatusOr<v1::Operation> OperationTable::Get(const std::string& name) const
     return absl::InvalidArgumentError(
         absl::StrCat("name: ", Echo(name), " is not an operation name operations/{id}"));
   }
-  std::lock_guard<std::mutex> lock(mu_);
+  MutexLock lock(&mu_);
   auto it = ops_.find(name);
   if (it == ops_.end())
     return absl::NotFoundError(absl::StrCat("operation ", Echo(name), " not found"));
@@ -106,13 +107,13 @@ absl::StatusOr<v1::Operation> OperationTable::Get(const std::string& name) const
 void OperationTable::Wait(const std::string& name, absl::Duration timeout, WaitDone done) {
   absl::StatusOr<v1::Operation> now;
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    MutexLock lock(&mu_);
     auto it = ops_.find(name);
     if (it != ops_.end() && !it->second.op.done() && !stopping_ && timeout > absl::ZeroDuration()) {
       waiters_.push_back({name,
                           std::chrono::steady_clock::now() + absl::ToChronoNanoseconds(timeout),
                           std::move(done)});
-      cv_.notify_all();
+      cv_.SignalAll();
       return;
     }
   }
@@ -120,14 +121,14 @@ void OperationTable::Wait(const std::string& name, absl::Duration timeout, WaitD
 }
 
 void OperationTable::TimerLoop() {
-  std::unique_lock<std::mutex> lock(mu_);
+  MutexLock lock(&mu_);
   while (!stopping_) {
     auto next = std::chrono::steady_clock::time_point::max();
     for (const Waiter& w : waiters_) next = std::min(next, w.deadline);
     if (next == std::chrono::steady_clock::time_point::max()) {
-      cv_.wait(lock);
+      cv_.Wait(&mu_);
     } else {
-      cv_.wait_until(lock, next);
+      cv_.WaitUntil(&mu_, next);
     }
     const auto now = std::chrono::steady_clock::now();
     std::vector<std::pair<WaitDone, v1::Operation>> answers;
@@ -138,9 +139,9 @@ void OperationTable::TimerLoop() {
     }
     waiters_.erase(expired, waiters_.end());
     if (answers.empty()) continue;
-    lock.unlock();
+    lock.Unlock();
     for (auto& [done, op] : answers) done(std::move(op));
-    lock.lock();
+    lock.Lock();
   }
 }
 

@@ -15,17 +15,16 @@
 #define SERVER_OBJECTS_OPERATION_TABLE_H_
 
 #include <chrono>
-#include <condition_variable>
 #include <deque>
 #include <functional>
 #include <map>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "skimap/mutex.h"
 #include "skimap/v1/objects.pb.h"
 
 namespace skimap::server {
@@ -68,17 +67,17 @@ class OperationTable {
     std::chrono::steady_clock::time_point deadline;
     WaitDone done;
   };
-  v1::Operation Snapshot(const Entry& e) const;  // REQUIRES: mu_ held
+  v1::Operation Snapshot(const Entry& e) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   void TimerLoop();
 
   const Options options_;
-  mutable std::mutex mu_;
-  std::condition_variable cv_;
-  uint64_t next_id_ = 1;              // guarded by mu_
-  std::map<std::string, Entry> ops_;  // guarded by mu_
-  std::deque<std::string> finished_;  // guarded by mu_; oldest first
-  std::vector<Waiter> waiters_;       // guarded by mu_
-  bool stopping_ = false;             // guarded by mu_
+  mutable Mutex mu_;
+  CondVar cv_;
+  uint64_t next_id_ ABSL_GUARDED_BY(mu_) = 1;
+  std::map<std::string, Entry> ops_ ABSL_GUARDED_BY(mu_);
+  std::deque<std::string> finished_ ABSL_GUARDED_BY(mu_);  // oldest first
+  std::vector<Waiter> waiters_ ABSL_GUARDED_BY(mu_);
+  bool stopping_ ABSL_GUARDED_BY(mu_) = false;
   std::thread timer_;
 };
 

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Long fuzzing runs, one target after another at nice 19, each until RUNS executions or
+# SECONDS_EACH seconds, whichever comes first; prints one line per target with the
+# executions done (libFuzzer's final stats) and whether it crashed. New inputs go to
+# build/asan/tests/fuzz/long/<target>/ (not the committed corpus); crashes to
+# build/asan/tests/fuzz/artifacts/. Usage: scripts/fuzz_long.sh [RUNS=10000000]
+# [SECONDS_EACH=3600] [targets...]   (after scripts/build.sh asan)
+set -uo pipefail
+cd "$(dirname "$0")/.."
+runs=${1:-10000000}
+seconds=${2:-3600}
+shift 2 2>/dev/null || shift $#
+targets=("$@")
+if ((${#targets[@]} == 0)); then
+  targets=(image_codec frame_decode map_requests export_reader skimap_file chunk_codec
+    random_forest object_database)
+fi
+fuzz=build/asan/tests/fuzz
+for t in "${targets[@]}"; do
+  mkdir -p "$fuzz/long/$t" "$fuzz/artifacts"
+  log="$fuzz/long/$t.log"
+  start=$(date +%s)
+  nice -n 19 "$fuzz/skimap_${t}_fuzz" -runs="$runs" -max_total_time="$seconds" -timeout=30 \
+    -rss_limit_mb=3072 -print_final_stats=1 -artifact_prefix="$fuzz/artifacts/$t-" \
+    "$fuzz/long/$t" "tests/fuzz/corpus/$t" >"$log" 2>&1
+  rc=$?
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  echo "$t: ${execs:-?} executions in $(($(date +%s) - start)) s, exit $rc$( ((rc)) && echo ' (CRASH: see '"$log"')')"
+done
