@@ -176,7 +176,8 @@ std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {
   // than 300 of its 500 keypoints) go to the end: objects must differ and look like
   // packaging.
   std::vector<size_t> out, twins;
-  for (const auto& [s, i] : score) {
+  for (const auto& entry : score) {
+    const size_t i = entry.second;  // named, not bound: the lambda captures it (clang 14)
     const bool twin = std::any_of(out.begin(), out.end(), [&](size_t k) {
       return thumbs[i].dot(thumbs[k]) / thumbs[i].total() > 0.6;
     });

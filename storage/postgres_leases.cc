@@ -28,17 +28,17 @@ Lease LeaseAt(const PgResult& r, int row) {
 
 void PostgresMapStore::SetFence(const std::string& id, int64_t token,
                                 Clock::time_point valid_until) {
-  std::lock_guard<std::mutex> lock(fence_mu_);
+  MutexLock lock(&fence_mu_);
   fences_[id] = Held{token, valid_until};
 }
 
 void PostgresMapStore::DropFence(const std::string& id) {
-  std::lock_guard<std::mutex> lock(fence_mu_);
+  MutexLock lock(&fence_mu_);
   fences_.erase(id);
 }
 
 std::optional<LeaseStore::Held> PostgresMapStore::HeldLease(const std::string& id) {
-  std::lock_guard<std::mutex> lock(fence_mu_);
+  MutexLock lock(&fence_mu_);
   auto it = fences_.find(id);
   if (it == fences_.end() || it->second.valid_until <= Clock::now()) return std::nullopt;
   return it->second;
@@ -52,7 +52,7 @@ absl::StatusOr<std::vector<std::string>> PostgresMapStore::Heartbeat(const std::
   // Fences taken from here on are not judged by this renewal.
   std::map<std::string, Held> before;
   {
-    std::lock_guard<std::mutex> lock(fence_mu_);
+    MutexLock lock(&fence_mu_);
     before = fences_;
   }
   using Renewed = std::set<std::pair<std::string, int64_t>>;
@@ -80,7 +80,7 @@ absl::StatusOr<std::vector<std::string>> PostgresMapStore::Heartbeat(const std::
       });
   if (!renewed.ok()) return renewed.status();
   std::vector<std::string> lost;
-  std::lock_guard<std::mutex> lock(fence_mu_);
+  MutexLock lock(&fence_mu_);
   for (const auto& [id, held] : before) {
     auto it = fences_.find(id);
     if (it == fences_.end() || it->second.token != held.token) continue;  // changed meanwhile
@@ -98,7 +98,7 @@ absl::StatusOr<std::vector<std::string>> PostgresMapStore::Heartbeat(const std::
 absl::Status PostgresMapStore::Leave() {
   if (options_.node_id.empty()) return NotANode();
   {
-    std::lock_guard<std::mutex> lock(fence_mu_);
+    MutexLock lock(&fence_mu_);
     fences_.clear();
   }
   return InTransaction([&](PgConnection& c) -> absl::Status {

@@ -62,7 +62,7 @@ absl::Status PostgresMapStore::CheckFence(PgConnection& c, const std::string& id
   if (options_.node_id.empty()) return absl::OkStatus();
   int64_t token = 0;
   {
-    std::lock_guard<std::mutex> lock(fence_mu_);
+    MutexLock lock(&fence_mu_);
     auto it = fences_.find(id);
     if (it == fences_.end()) {
       return absl::FailedPreconditionError(absl::StrCat(

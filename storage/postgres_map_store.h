@@ -28,7 +28,7 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
+#include "skimap/mutex.h"
 #include <string>
 
 #include "absl/base/thread_annotations.h"
@@ -111,7 +111,7 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
 
   const Options options_;
   std::unique_ptr<PgPool> pool_;
-  std::mutex fence_mu_;
+  Mutex fence_mu_;
   std::map<std::string, Held> fences_ ABSL_GUARDED_BY(fence_mu_);  // leases this node holds
 };
 

@@ -254,7 +254,8 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
            std::tie(b.second.x, b.second.y, b.second.z);  // deterministic order
   });
   std::vector<Cell> taken;
-  for (const auto& [votes, cell] : peaks) {
+  for (const auto& peak : peaks) {
+    const Cell& cell = peak.second;  // named, not bound: lambdas capture it (clang 14)
     if (static_cast<int>(out.size()) >= options.max_peaks) break;
     const bool adjacent = std::any_of(taken.begin(), taken.end(), [&](const Cell& t) {
       return std::abs(t.x - cell.x) <= 1 && std::abs(t.y - cell.y) <= 1 &&
@@ -285,7 +286,7 @@ std::vector<PoseEstimate> VotePoses(std::span<const LabelMatch> matches, const O
       if (e.score > best.score) best = e;
     }
     PoseEstimate refined = RefinePose(matches, best.pose, options.inlier_distance);
-    refined.votes = votes;
+    refined.votes = peak.first;
     if (refined.score >= options.min_score && refined.inliers >= 3) out.push_back(refined);
   }
   std::sort(out.begin(), out.end(),

@@ -33,17 +33,17 @@ absl::Status FleetNode::Start() {
 
 void FleetNode::StopThread() {
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    MutexLock lock(&mu_);
     stopping_ = true;
   }
-  cv_.notify_all();
+  cv_.SignalAll();
   if (heartbeat_.joinable()) heartbeat_.join();
 }
 
 absl::Status FleetNode::Leave() {
   StopThread();
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    MutexLock lock(&mu_);
     owned_.clear();
   }
   return leases_->Leave();
@@ -51,9 +51,13 @@ absl::Status FleetNode::Leave() {
 
 void FleetNode::HeartbeatLoop() {
   const auto period = absl::ToChronoMilliseconds(options_.lease_ttl / 3);
-  std::unique_lock<std::mutex> lock(mu_);
-  while (!cv_.wait_for(lock, period, [this] { return stopping_; })) {
-    lock.unlock();
+  MutexLock lock(&mu_);
+  while (!stopping_) {
+    const auto deadline = std::chrono::steady_clock::now() + period;
+    while (!stopping_ && cv_.WaitUntil(&mu_, deadline)) {
+    }
+    if (stopping_) break;
+    lock.Unlock();
     absl::StatusOr<std::vector<std::string>> lost =
         leases_->Heartbeat(options_.address, options_.lease_ttl);
     if (!lost.ok()) {
@@ -62,13 +66,13 @@ void FleetNode::HeartbeatLoop() {
     } else {
       for (const std::string& id : *lost) Lost(id);
     }
-    lock.lock();
+    lock.Lock();
   }
 }
 
 void FleetNode::Lost(const std::string& id) {
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    MutexLock lock(&mu_);
     if (owned_.erase(id) == 0) return;
   }
   std::fprintf(stderr, "skimapd: lost the lease of map %s to another node\n", id.c_str());
@@ -76,7 +80,7 @@ void FleetNode::Lost(const std::string& id) {
 }
 
 bool FleetNode::Own(const std::string& id, int64_t token, bool loaded) {
-  std::lock_guard<std::mutex> lock(mu_);
+  MutexLock lock(&mu_);
   auto [it, inserted] = owned_.try_emplace(id, token);
   if (inserted) return !loaded;
   if (it->second == token) return false;

@@ -16,10 +16,9 @@
 #ifndef SERVER_FLEET_FLEET_NODE_H_
 #define SERVER_FLEET_FLEET_NODE_H_
 
-#include <condition_variable>
 #include <functional>
 #include <map>
-#include <mutex>
+#include "skimap/mutex.h"
 #include <string>
 #include <thread>
 
@@ -67,8 +66,8 @@ class FleetNode final : public MapOwnership {
 
   storage::LeaseStore* const leases_;
   const Options options_;
-  std::mutex mu_;
-  std::condition_variable cv_;
+  Mutex mu_;
+  CondVar cv_;
   bool stopping_ ABSL_GUARDED_BY(mu_) = false;
   // Maps served here, with the fencing token of the lease they were loaded under.
   std::map<std::string, int64_t> owned_ ABSL_GUARDED_BY(mu_);

@@ -66,6 +66,7 @@ void FrameStreamReactor::Step() {
   v1::FrameAck* write = nullptr;
   v1::Frame* read = nullptr;
   bool finish = false;
+  StreamLimiter::Slot ended;  // the client's stream slot, given back before Finish
   {
     WriterLock lock(&mu_);
     if (broken_) {
@@ -86,12 +87,17 @@ void FrameStreamReactor::Step() {
     if ((reads_done_ || broken_) && !read_pending_ && in_flight_ == 0 && !write_pending_ &&
         !finished_) {
       finished_ = finish = true;
+      ended = std::move(slot_);
     }
   }
   // The buffers stay untouched until the matching OnWriteDone / OnReadDone.
   if (write != nullptr) StartWrite(write);
   if (read != nullptr) StartRead(read);
-  if (finish) Finish(grpc::Status::OK);
+  if (finish) {
+    // Freed before the client sees the end: a stream it opens next counts without it.
+    ended = StreamLimiter::Slot();
+    Finish(grpc::Status::OK);
+  }
 }
 
 }  // namespace skimap::server

@@ -248,6 +248,8 @@ class LiveMap {
                             const perception::CameraPose& new_pose);
   void ApplyRecognitionMoves(MapState& state, uint64_t position);  // under the lock
   void AfterLoadRecognition();  // worker, after the snapshot was read
+  // The Labels volume's grid: fixed when the map is made, so read without the lock.
+  const Grid& labels_grid() const ABSL_NO_THREAD_SAFETY_ANALYSIS { return state_.labels.grid(); }
   void NotifyWatchers();
   std::string RetentionPolicy() const;
 

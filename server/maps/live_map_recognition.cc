@@ -144,7 +144,7 @@ std::optional<perception::CameraPose> LiveMap::ApplyLabelsOnWorker(
   const FrameIndex::Entry* entry = index_.Find(sequence);
   if (entry == nullptr || entry->recognized) return std::nullopt;
   VoxelBatch<MultiLabelVoxel> batch;
-  recognition::AddLabels(observations, entry->pose, state_.labels.grid(), &batch);
+  recognition::AddLabels(observations, entry->pose, labels_grid(), &batch);
   batch.Finalize();
   {
     WriterLock lock(&snapshot_mu_);
@@ -225,8 +225,8 @@ void LiveMap::StageRecognitionMove(uint64_t sequence, const perception::RgbdFram
   absl::StatusOr<recognition::LabelObservations> observed =
       worker_observer_->Observe(frame, io.min_depth, io.max_depth);
   if (observed.ok()) {
-    recognition::AddLabels(*observed, old_pose, state_.labels.grid(), &labels_remove_);
-    recognition::AddLabels(*observed, new_pose, state_.labels.grid(), &labels_add_);
+    recognition::AddLabels(*observed, old_pose, labels_grid(), &labels_remove_);
+    recognition::AddLabels(*observed, new_pose, labels_grid(), &labels_add_);
   }
   hypothesis_moves_[sequence] = Isometry(new_pose) * Isometry(old_pose).inverse();
 }
@@ -298,12 +298,15 @@ void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
 
 void LiveMap::AfterLoadRecognition() {
   WriterLock lock(&snapshot_mu_);
+  // The lambdas below fill locals: clang's lock analysis checks a lambda as a function of
+  // its own, where a captured alias of state_ would count as unguarded.
   RecognitionState& r = state_.recognition;
   r.recognized_frames = index_.recognized();
-  r.instance_keys.clear();
+  absl::flat_hash_map<uint64_t, VoxelKey> instance_keys;
   state_.instances.ForEach([&](const VoxelKey& k, const InstancesVoxel& voxel) {
-    for (const Instance& i : voxel.items()) r.instance_keys[i.id] = k;
+    for (const Instance& i : voxel.items()) instance_keys[i.id] = k;
   });
+  r.instance_keys = std::move(instance_keys);
   recognized_frames_.store(r.recognized_frames, std::memory_order_release);
   if (model_ == nullptr || r.fingerprint == 0 || r.fingerprint == model_->fingerprint()) return;
   // Labels name classes of another object database: they mean nothing with this one. The
@@ -312,11 +315,13 @@ void LiveMap::AfterLoadRecognition() {
                "skimapd: %s: the object classifier changed since the map's labels were made; "
                "its labels and hypotheses are cleared (instances are kept)\n",
                MapName(id_).c_str());
+  DirtyChunks labels, hypotheses;
   state_.labels.ForEach(
-      [&](const VoxelKey& k, const MultiLabelVoxel&) { state_.dirty_labels.insert(ChunkOf(k)); });
-  state_.hypotheses.ForEach([&](const VoxelKey& k, const HypothesesVoxel&) {
-    state_.dirty_hypotheses.insert(ChunkOf(k));
-  });
+      [&](const VoxelKey& k, const MultiLabelVoxel&) { labels.insert(ChunkOf(k)); });
+  state_.hypotheses.ForEach(
+      [&](const VoxelKey& k, const HypothesesVoxel&) { hypotheses.insert(ChunkOf(k)); });
+  state_.dirty_labels.insert(labels.begin(), labels.end());
+  state_.dirty_hypotheses.insert(hypotheses.begin(), hypotheses.end());
   state_.labels.Clear();
   state_.hypotheses.Clear();
   r.fingerprint = model_->fingerprint();
