@@ -28,11 +28,11 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include "skimap/mutex.h"
 #include <string>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/time/time.h"
+#include "skimap/mutex.h"
 #include "storage/lease_store.h"
 #include "storage/map_store.h"
 #include "storage/postgres.h"

@@ -18,13 +18,13 @@
 
 #include <functional>
 #include <map>
-#include "skimap/mutex.h"
 #include <string>
 #include <thread>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/time/time.h"
 #include "server/maps/map_ownership.h"
+#include "skimap/mutex.h"
 #include "skimap/v1/fleet.pb.h"
 #include "storage/lease_store.h"
 
