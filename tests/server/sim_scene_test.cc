@@ -163,7 +163,7 @@ TEST_F(SimSceneTest, LowBandGridMarksTableLegsWhereTheGeometrySays) {
     // 2026-11-23: 7/7, 10/10, 8/10, 13/13 (lowest 0.8; two thirds is 0.53, the floor stays).
     EXPECT_GE(c.OccupiedFraction(), 0.6) << leg.name;
   }
-  EXPECT_GE(legs_seen, 3);                       // measured 4 (2026-11-23); two thirds is 2.7
+  EXPECT_GE(legs_seen, 3);  // measured 4 (2026-11-23); two thirds is 2.7
   // Measured 38/40 = 0.95 (GCC release) and 34/38 = 0.89 (clang ASan build: the scene's
   // noise draws differ between compilers); the floor leaves one more edge cell per leg.
   EXPECT_GE(all_legs.OccupiedFraction(), 0.80);
