@@ -40,8 +40,8 @@
 #include "client/map_client.h"
 #include "perception/frame_integrator.h"
 #include "perception/image_codec.h"
-#include "server/server.h"
 #include "server/maps/frame_decode.h"
+#include "server/server.h"
 #include "skimap/skimap.h"
 
 ABSL_FLAG(int, frames, 150, "frames per ingestion run (per stream)");

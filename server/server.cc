@@ -12,14 +12,13 @@ namespace skimap::server {
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   // Refuse a wrong address before anything is loaded or joined.
-  if (absl::Status s =
-          CheckListenAddress(options.grpc.address, options.grpc.insecure, "--address");
+  if (absl::Status s = CheckListenAddress(options.grpc.address, options.grpc.insecure, "--address");
       !s.ok()) {
     return s;
   }
   if (!options.http.address.empty()) {
-    if (absl::Status s = CheckListenAddress(options.http.address, options.http.insecure,
-                                            "--http_address");
+    if (absl::Status s =
+            CheckListenAddress(options.http.address, options.http.insecure, "--http_address");
         !s.ok()) {
       return s;
     }

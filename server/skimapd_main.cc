@@ -128,8 +128,8 @@ int main(int argc, char** argv) {
   options.http.insecure = absl::GetFlag(FLAGS_insecure);
   options.http.max_body_bytes = size_t(absl::GetFlag(FLAGS_http_max_body_mb)) << 20;
   options.http.threads = absl::GetFlag(FLAGS_http_threads);
-  options.http.cors_origins = absl::StrSplit(absl::GetFlag(FLAGS_http_cors_origins), ',',
-                                             absl::SkipWhitespace());
+  options.http.cors_origins =
+      absl::StrSplit(absl::GetFlag(FLAGS_http_cors_origins), ',', absl::SkipWhitespace());
   options.maps.max_frame_bytes = size_t(options.grpc.max_message_bytes) / 5 * 4;
   options.maps.worker_threads = absl::GetFlag(FLAGS_worker_threads);
   options.maps.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);

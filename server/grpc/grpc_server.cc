@@ -10,8 +10,8 @@
 namespace skimap::server {
 
 absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& options,
-                                                               MapService* maps,
-                                                               ObjectService* objects) {
+                                                              MapService* maps,
+                                                              ObjectService* objects) {
   if (absl::Status s = CheckListenAddress(options.address, options.insecure, "--address");
       !s.ok()) {
     return s;

@@ -48,8 +48,7 @@ class GrpcServer {
   // Binds and starts serving `maps` and `objects` (not owned; REQUIRES: both outlive the
   // server). FailedPrecondition for an address beyond loopback without `insecure`;
   // Unavailable if the address cannot be bound.
-  static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options,
-                                                           MapService* maps,
+  static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options, MapService* maps,
                                                            ObjectService* objects);
   ~GrpcServer();  // Shutdown()
 

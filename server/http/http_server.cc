@@ -98,9 +98,10 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
   HttpServer* self = s.get();
-  http.set_pre_routing_handler([self](const httplib::Request& request, httplib::Response& response) {
-    return self->ApplyCors(request, response);
-  });
+  http.set_pre_routing_handler(
+      [self](const httplib::Request& request, httplib::Response& response) {
+        return self->ApplyCors(request, response);
+      });
   auto dispatch = [self](const httplib::Request& request, httplib::Response& response) {
     self->Dispatch(request, response);
   };
@@ -112,15 +113,14 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
   http.set_error_handler([limit](const httplib::Request& request, httplib::Response& response) {
     if (!response.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
     if (response.status == 413) {
-      WriteError(response, BodyTooLargeError(absl::StrCat(
-                               "body: ", request.get_header_value("Content-Length"),
-                               " bytes exceed the limit of ", limit,
-                               " bytes (skimapd --http_max_body_mb)")));
+      WriteError(response,
+                 BodyTooLargeError(absl::StrCat(
+                     "body: ", request.get_header_value("Content-Length"),
+                     " bytes exceed the limit of ", limit, " bytes (skimapd --http_max_body_mb)")));
     } else if (response.status == 404) {
       WriteError(response, absl::NotFoundError("no such route"));
     } else {
-      WriteError(response, absl::InvalidArgumentError("malformed HTTP request"),
-                 response.status);
+      WriteError(response, absl::InvalidArgumentError("malformed HTTP request"), response.status);
     }
     return httplib::Server::HandlerResponse::Handled;
   });
@@ -214,10 +214,10 @@ httplib::Server::HandlerResponse HttpServer::ApplyCors(const httplib::Request& r
     return httplib::Server::HandlerResponse::Unhandled;  // CORS headers only
   }
   if (!allowed) {
-    WriteError(response, absl::PermissionDeniedError(absl::StrCat(
-                             "origin ", Echo(origin),
-                             " may not call this server from a browser (skimapd "
-                             "--http_cors_origins)")));
+    WriteError(response, absl::PermissionDeniedError(
+                             absl::StrCat("origin ", Echo(origin),
+                                          " may not call this server from a browser (skimapd "
+                                          "--http_cors_origins)")));
     return httplib::Server::HandlerResponse::Handled;
   }
   const std::string methods = MethodsFor(request.path);
@@ -228,7 +228,8 @@ httplib::Server::HandlerResponse HttpServer::ApplyCors(const httplib::Request& r
   response.status = 204;
   response.set_header("Access-Control-Allow-Methods", methods);
   const std::string headers = request.get_header_value("Access-Control-Request-Headers");
-  response.set_header("Access-Control-Allow-Headers", headers.empty() ? "Content-Type, Accept" : headers);
+  response.set_header("Access-Control-Allow-Headers",
+                      headers.empty() ? "Content-Type, Accept" : headers);
   response.set_header("Access-Control-Max-Age", "600");
   return httplib::Server::HandlerResponse::Handled;
 }

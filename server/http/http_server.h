@@ -38,7 +38,7 @@ class HttpServer {
     // host:port; port 0 = any free port. Loopback unless `insecure` (listen_address.h).
     std::string address = "127.0.0.1:8080";
     bool insecure = false;
-    int threads = 8;                        // requests served at once, >= 1
+    int threads = 8;                           // requests served at once, >= 1
     size_t max_body_bytes = size_t{32} << 20;  // larger bodies: 413
     // Origins allowed to call from a browser ("https://viewer.example:8443"), or "*" for
     // any; empty: none (same-origin pages only).

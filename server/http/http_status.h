@@ -9,9 +9,8 @@
 //   RESOURCE_EXHAUSTED marked by BodyTooLargeError      413
 //   RESOURCE_EXHAUSTED (queues, limits, rates)          429
 //   UNIMPLEMENTED                                       501
-//   UNAVAILABLE                                         503 (fleet redirects: the message names the owner)
-//   DEADLINE_EXCEEDED                                   504
-//   anything else                                       500
+//   UNAVAILABLE                                         503 (fleet redirects: the message names the
+//   owner) DEADLINE_EXCEEDED                                   504 anything else 500
 //
 // Thread safety: pure functions.
 #ifndef SERVER_HTTP_HTTP_STATUS_H_

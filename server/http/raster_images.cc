@@ -18,7 +18,8 @@ absl::Status CheckRaster(uint32_t width, uint32_t height, size_t cells, const ch
         what, " has no cells (an empty map or region): no image to draw; ask for JSON"));
   }
   if (cells != size_t{width} * height) {
-    return absl::InvalidArgumentError(absl::StrCat(what, ": data size differs from width x height"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, ": data size differs from width x height"));
   }
   return absl::OkStatus();
 }

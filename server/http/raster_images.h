@@ -21,8 +21,7 @@ enum class RasterFormat { kJson, kPgm, kPng };
 // (cells >= 50), 254 free, 205 unknown. kPgm: binary PGM (P5, maxval 255); kPng: PNG.
 // FailedPrecondition for a grid without cells (nothing to draw); InvalidArgument if its
 // data size differs from width x height.
-absl::StatusOr<std::string> EncodeOccupancyGrid(const v1::OccupancyGrid& grid,
-                                                RasterFormat format);
+absl::StatusOr<std::string> EncodeOccupancyGrid(const v1::OccupancyGrid& grid, RasterFormat format);
 
 // The height map as a 16-bit greyscale PNG: pixel = round((z - z_offset) / 0.001 m), 0
 // where unknown; *z_offset is set 1 mm below the lowest height (every known cell >= 1),

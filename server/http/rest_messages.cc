@@ -152,10 +152,10 @@ std::string Accepted(const Descriptor* d, const std::set<std::string>& path_fiel
 // A parameter's name as it may appear in an error message: as given when it looks like a
 // field path, quoted and cut (Echo) otherwise.
 std::string ParameterName(const std::string& name) {
-  const bool plain = name.size() <= kMaxEchoBytes &&
-                     std::all_of(name.begin(), name.end(), [](char c) {
-                       return absl::ascii_isalnum(c) || c == '_' || c == '.';
-                     });
+  const bool plain =
+      name.size() <= kMaxEchoBytes && std::all_of(name.begin(), name.end(), [](char c) {
+        return absl::ascii_isalnum(c) || c == '_' || c == '.';
+      });
   return plain ? name : Echo(name);
 }
 
@@ -199,7 +199,8 @@ absl::Status SetParameter(const std::string& name, const std::vector<std::string
       for (size_t k = 0; k + 1 < leaves[i].size(); ++k) {
         leaf_owner = leaf_owner->GetReflection()->MutableMessage(leaf_owner, leaves[i][k]);
       }
-      if (!SetScalar(leaf_owner, leaves[i].back(), std::string(absl::StripAsciiWhitespace(numbers[i])))) {
+      if (!SetScalar(leaf_owner, leaves[i].back(),
+                     std::string(absl::StripAsciiWhitespace(numbers[i])))) {
         return error(absl::StrCat(names[i], ": ", Echo(numbers[i]), " is not a number"));
       }
     }
@@ -245,8 +246,7 @@ absl::Status FromJsonBody(const std::string& body, Message* message) {
 
 absl::Status FromQueryParameters(const std::multimap<std::string, std::string>& parameters,
                                  const std::set<std::string>& path_fields,
-                                 const std::set<std::string>& route_parameters,
-                                 Message* message) {
+                                 const std::set<std::string>& route_parameters, Message* message) {
   for (auto it = parameters.begin(); it != parameters.end();) {
     const std::string& name = it->first;
     std::vector<std::string> values;
@@ -257,14 +257,13 @@ absl::Status FromQueryParameters(const std::multimap<std::string, std::string>& 
   return absl::OkStatus();
 }
 
-absl::Status BindPathField(const std::string& field, const std::string& value,
-                           Message* message) {
+absl::Status BindPathField(const std::string& field, const std::string& value, Message* message) {
   const FieldDescriptor* f = message->GetDescriptor()->FindFieldByName(field);
   const Reflection* r = message->GetReflection();
   const std::string given = r->GetString(*message, f);
   if (!given.empty() && given != value) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": the body names ", Echo(given),
-                                                   ", the path ", Echo(value)));
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": the body names ", Echo(given), ", the path ", Echo(value)));
   }
   r->SetString(message, f, value);
   return absl::OkStatus();

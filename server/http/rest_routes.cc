@@ -50,8 +50,8 @@ absl::StatusOr<Request> ParseRequest(const RestCall& call, Body body,
   }
   std::set<std::string> path_fields;
   for (const Binding& b : bindings) path_fields.insert(b.field);
-  if (absl::Status s = FromQueryParameters(call.http.params, path_fields, route_parameters,
-                                           &request);
+  if (absl::Status s =
+          FromQueryParameters(call.http.params, path_fields, route_parameters, &request);
       !s.ok()) {
     return s;
   }
@@ -109,9 +109,9 @@ absl::StatusOr<RasterFormat> FormatOf(const RestCall& call, bool pgm) {
 
 template <class Raster>
 RestReply PictureReply(const Raster& raster, std::string bytes, RasterFormat format) {
-  RestReply reply{.content_type = format == RasterFormat::kPgm ? "image/x-portable-graymap"
-                                                               : "image/png",
-                  .body = std::move(bytes)};
+  RestReply reply{
+      .content_type = format == RasterFormat::kPgm ? "image/x-portable-graymap" : "image/png",
+      .body = std::move(bytes)};
   reply.headers.emplace("X-Skimap-Resolution", absl::StrCat(raster.resolution()));
   reply.headers.emplace("X-Skimap-Origin", absl::StrCat(raster.origin_x(), " ", raster.origin_y()));
   reply.headers.emplace("X-Skimap-Width", absl::StrCat(raster.width()));
@@ -173,15 +173,15 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) 
                     Unary<v1::CreateMapRequest, v1::Map>(
                         Body::kJson, {}, [&maps](const auto& r) { return maps.CreateMap(r); })});
   routes.push_back({"GET", "/v1/maps/{map}",
-                    Unary<v1::GetMapRequest, v1::Map>(Body::kNone, kMapName,
-                                              [&maps](const auto& r) { return maps.GetMap(r); })});
-  routes.push_back({"DELETE", "/v1/maps/{map}",
-                    Unary<v1::DeleteMapRequest, v1::DeleteMapResponse>(
-                        Body::kNone, kMapName,
-                        [&maps](const auto& r) -> absl::StatusOr<v1::DeleteMapResponse> {
-                          if (absl::Status s = maps.DeleteMap(r); !s.ok()) return s;
-                          return v1::DeleteMapResponse();
-                        })});
+                    Unary<v1::GetMapRequest, v1::Map>(
+                        Body::kNone, kMapName, [&maps](const auto& r) { return maps.GetMap(r); })});
+  routes.push_back(
+      {"DELETE", "/v1/maps/{map}",
+       Unary<v1::DeleteMapRequest, v1::DeleteMapResponse>(
+           Body::kNone, kMapName, [&maps](const auto& r) -> absl::StatusOr<v1::DeleteMapResponse> {
+             if (absl::Status s = maps.DeleteMap(r); !s.ok()) return s;
+             return v1::DeleteMapResponse();
+           })});
   routes.push_back({"GET", "/v1/maps/{map}/occupancyGrid",
                     [&maps](const RestCall& call) { return OccupancyGrid(maps, call); }});
   routes.push_back({"GET", "/v1/maps/{map}/heightMap",
@@ -189,15 +189,17 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) 
   routes.push_back({"GET", "/v1/maps/{map}/voxels",
                     Unary<v1::GetVoxelsRequest, v1::GetVoxelsResponse>(
                         Body::kNone, kMap, [&maps](const auto& r) { return maps.GetVoxels(r); })});
-  routes.push_back({"POST", "/v1/maps/{map}:radiusSearch",
-                    Unary<v1::RadiusSearchRequest, v1::RadiusSearchResponse>(
-                        Body::kJson, kMap, [&maps](const auto& r) { return maps.RadiusSearch(r); })});
-  routes.push_back({"POST", "/v1/maps/{map}/frames",
-                    Unary<v1::Frame, v1::FrameAck>(Body::kJson, kMap, [&maps](const v1::Frame& frame) {
-                      return Await<v1::FrameAck>([&](LiveMap::FrameDone done) {
-                        maps.IntegrateFrame(std::make_shared<v1::Frame>(frame), std::move(done));
-                      });
-                    })});
+  routes.push_back(
+      {"POST", "/v1/maps/{map}:radiusSearch",
+       Unary<v1::RadiusSearchRequest, v1::RadiusSearchResponse>(
+           Body::kJson, kMap, [&maps](const auto& r) { return maps.RadiusSearch(r); })});
+  routes.push_back(
+      {"POST", "/v1/maps/{map}/frames",
+       Unary<v1::Frame, v1::FrameAck>(Body::kJson, kMap, [&maps](const v1::Frame& frame) {
+         return Await<v1::FrameAck>([&](LiveMap::FrameDone done) {
+           maps.IntegrateFrame(std::make_shared<v1::Frame>(frame), std::move(done));
+         });
+       })});
   routes.push_back({"POST", "/v1/maps/{map}:updatePoses",
                     Unary<v1::UpdatePosesRequest, v1::UpdatePosesResponse>(
                         Body::kJson, kMap, [&maps](const v1::UpdatePosesRequest& r) {
@@ -206,16 +208,18 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) 
                                              std::move(done));
                           });
                         })});
-  routes.push_back({"GET", "/v1/maps/{map}/instances",
-                    Unary<v1::ListInstancesRequest, v1::ListInstancesResponse>(
-                        Body::kNone, kMap, [&maps](const auto& r) { return maps.ListInstances(r); })});
+  routes.push_back(
+      {"GET", "/v1/maps/{map}/instances",
+       Unary<v1::ListInstancesRequest, v1::ListInstancesResponse>(
+           Body::kNone, kMap, [&maps](const auto& r) { return maps.ListInstances(r); })});
   routes.push_back({"GET", "/v1/maps/{map}/instances/{id}",
                     Unary<v1::GetInstanceRequest, v1::Instance>(
                         Body::kNone, {{"name", "maps/{map}/instances/{id}"}},
                         [&maps](const auto& r) { return maps.GetInstance(r); })});
-  routes.push_back({"GET", "/v1/objects",
-                    Unary<v1::ListObjectsRequest, v1::ListObjectsResponse>(
-                        Body::kNone, {}, [&objects](const auto& r) { return objects.ListObjects(r); })});
+  routes.push_back(
+      {"GET", "/v1/objects",
+       Unary<v1::ListObjectsRequest, v1::ListObjectsResponse>(
+           Body::kNone, {}, [&objects](const auto& r) { return objects.ListObjects(r); })});
   routes.push_back({"GET", "/v1/objects/{object}",
                     Unary<v1::GetObjectRequest, v1::Object>(
                         Body::kNone, {{"name", "objects/{object}"}},

@@ -3,24 +3,25 @@
 // method the gRPC adapter calls, and answer its reply message as JSON (or a picture).
 // Validation lives in the cores only: a REST client gets the gRPC client's messages.
 //
-//   GET    /healthz                            HealthzResponse
-//   GET    /v1/openapi.json                    the OpenAPI 3 description (openapi.json)
-//   GET    /v1/maps                            ListMaps       ?pageSize&pageToken
-//   POST   /v1/maps                            CreateMap      body CreateMapRequest
-//   GET    /v1/maps/{map}                      GetMap
-//   DELETE /v1/maps/{map}                      DeleteMap
-//   GET    /v1/maps/{map}/occupancyGrid        GetOccupancyGrid ?region&bandMinZ&...; JSON, or
-//                                              ?format=pgm|png / Accept: image/x-portable-graymap|image/png
-//   GET    /v1/maps/{map}/heightMap            GetHeightMap   ?region&minVoxelWeight; JSON or PNG
-//   GET    /v1/maps/{map}/voxels               GetVoxels      ?box&pageSize&pageToken&minVoxelWeight
-//   POST   /v1/maps/{map}:radiusSearch         RadiusSearch   body RadiusSearchRequest
-//   POST   /v1/maps/{map}/frames               IntegrateFrame body Frame; reply FrameAck
-//   POST   /v1/maps/{map}:updatePoses          UpdatePoses    body UpdatePosesRequest
-//   GET    /v1/maps/{map}/instances            ListInstances  ?box|sphere&objIds&minScore&page...
-//   GET    /v1/maps/{map}/instances/{id}       GetInstance
-//   GET    /v1/objects                         ListObjects    ?pageSize&pageToken
-//   GET    /v1/objects/{object}                GetObject      ?view
+//   GET    /healthz                          HealthzResponse
+//   GET    /v1/openapi.json                  the OpenAPI 3 description (openapi.json)
+//   GET    /v1/maps                          ListMaps          ?pageSize&pageToken
+//   POST   /v1/maps                          CreateMap         body CreateMapRequest
+//   GET    /v1/maps/{map}                    GetMap
+//   DELETE /v1/maps/{map}                    DeleteMap
+//   GET    /v1/maps/{map}/occupancyGrid      GetOccupancyGrid  ?region&bandMinZ&...&format
+//   GET    /v1/maps/{map}/heightMap          GetHeightMap      ?region&minVoxelWeight&format
+//   GET    /v1/maps/{map}/voxels             GetVoxels         ?box&pageSize&pageToken&...
+//   POST   /v1/maps/{map}:radiusSearch       RadiusSearch      body RadiusSearchRequest
+//   POST   /v1/maps/{map}/frames             IntegrateFrame    body Frame; reply FrameAck
+//   POST   /v1/maps/{map}:updatePoses        UpdatePoses       body UpdatePosesRequest
+//   GET    /v1/maps/{map}/instances          ListInstances     ?box|sphere&objIds&minScore&...
+//   GET    /v1/maps/{map}/instances/{id}     GetInstance
+//   GET    /v1/objects                       ListObjects       ?pageSize&pageToken
+//   GET    /v1/objects/{object}              GetObject         ?view
 //
+// The grid is JSON, a ROS map_server PGM (?format=pgm or Accept: image/x-portable-graymap)
+// or a PNG (?format=png or Accept: image/png); the height map JSON or a 16-bit PNG.
 // Picture replies carry the raster's geometry in headers: X-Skimap-Resolution (m),
 // X-Skimap-Origin ("x y", m, the lower-left corner of cell (0, 0)), X-Skimap-Width /
 // -Height (cells), and for the height map X-Skimap-Z-Offset / X-Skimap-Z-Scale (pixel

@@ -17,8 +17,8 @@
 #include <tuple>
 
 #include "client/map_client.h"
-#include "server/server.h"
 #include "server/maps/map_export.h"
+#include "server/server.h"
 #include "storage/sqlite_map_store.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/server/synthetic_scene.h"

@@ -21,8 +21,8 @@ pid_t StartSkimapd(const std::string& address, const std::string& data_dir) {
   const pid_t pid = fork();
   if (pid == 0) {
     const std::string a = "--address=" + address, d = "--data_dir=" + data_dir;
-    execl(SKIMAPD_PATH, SKIMAPD_PATH, a.c_str(), d.c_str(), "--worker_threads=1", "--http_address=",
-          static_cast<char*>(nullptr));
+    execl(SKIMAPD_PATH, SKIMAPD_PATH, a.c_str(), d.c_str(), "--worker_threads=1",
+          "--http_address=", static_cast<char*>(nullptr));
     _exit(127);
   }
   return pid;

@@ -1,12 +1,13 @@
 // The one absl::Status -> HTTP mapping (server/http/http_status.h) and the REST message
 // helpers (server/http/rest_messages.h): query parameters onto request fields.
+#include "server/http/http_status.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <map>
 #include <string>
 
-#include "server/http/http_status.h"
 #include "server/http/rest_messages.h"
 #include "skimap/v1/instances.pb.h"
 #include "skimap/v1/objects.pb.h"
@@ -105,8 +106,9 @@ TEST(QueryParametersTest, ErrorsNameTheParameter) {
   const std::vector<std::pair<Params, std::string>> cases = {
       {{{"pageSize", "ten"}}, "query parameter pageSize: \"ten\" is not a int32"},
       {{{"pageSize", "99999999999"}}, "query parameter pageSize"},
-      {{{"box", "1,2"}}, "query parameter box: expected 6 comma-separated numbers "
-                         "(min.x,min.y,min.z,max.x,max.y,max.z), got \"1,2\""},
+      {{{"box", "1,2"}},
+       "query parameter box: expected 6 comma-separated numbers "
+       "(min.x,min.y,min.z,max.x,max.y,max.z), got \"1,2\""},
       {{{"box.min", "1"}}, "query parameter box.min: expected 3"},
       {{{"box.min.w", "1"}}, "query parameter box.min.w: unknown"},
       {{{"pageSize.x", "1"}}, "query parameter pageSize.x: pageSize has no fields"},

@@ -29,16 +29,16 @@ TEST(OpenApiTest, DocumentsExactlyTheRoutesTheServerRegisters) {
   for (const auto& [path, item] : doc["paths"].items()) {
     for (const auto& [method, operation] : item.items()) {
       documented.insert({absl::AsciiStrToUpper(method), path});
-      EXPECT_TRUE(operation["responses"].contains("200") ||
-                  operation["responses"].contains("204"))
+      EXPECT_TRUE(operation["responses"].contains("200") || operation["responses"].contains("204"))
           << method << " " << path;
       // Every {parameter} of the path is declared as a path parameter.
       std::set<std::string> declared;
       for (const nlohmann::json& p : operation.value("parameters", nlohmann::json::array())) {
         const nlohmann::json& param =
-            p.contains("$ref") ? doc["components"]["parameters"][p["$ref"].get<std::string>().substr(
-                                     sizeof("#/components/parameters/") - 1)]
-                               : p;
+            p.contains("$ref")
+                ? doc["components"]["parameters"]
+                     [p["$ref"].get<std::string>().substr(sizeof("#/components/parameters/") - 1)]
+                : p;
         if (param["in"] == "path") declared.insert(param["name"].get<std::string>());
       }
       std::set<std::string> in_path;

@@ -73,8 +73,8 @@ TEST_F(RestApiTest, PostedFramesAreInTheMap) {
 
 TEST_F(RestApiTest, CreateListGetDeleteAMap) {
   const v1::Map created = ParseJson<v1::Map>(http().Post(
-      "/v1/maps", R"({"mapId": "kitchen", "options": {"resolution": 0.05, "carveFreeSpace": true}})",
-      kJson));
+      "/v1/maps",
+      R"({"mapId": "kitchen", "options": {"resolution": 0.05, "carveFreeSpace": true}})", kJson));
   EXPECT_EQ(created.name(), "maps/kitchen");
   EXPECT_TRUE(created.options().carve_free_space());
   EXPECT_DOUBLE_EQ(created.options().max_depth(), 5.0);  // defaults filled in
@@ -84,9 +84,9 @@ TEST_F(RestApiTest, CreateListGetDeleteAMap) {
   ASSERT_EQ(first.maps_size(), 1);
   EXPECT_EQ(first.maps(0).name(), "maps/kitchen");
   ASSERT_FALSE(first.next_page_token().empty());
-  const auto second = ParseJson<v1::ListMapsResponse>(http().Get(
-      absl::StrCat("/v1/maps?pageSize=1&pageToken=", httplib::detail::encode_query_param(
-                                                          first.next_page_token()))));
+  const auto second = ParseJson<v1::ListMapsResponse>(
+      http().Get(absl::StrCat("/v1/maps?pageSize=1&pageToken=",
+                              httplib::detail::encode_query_param(first.next_page_token()))));
   ASSERT_EQ(second.maps_size(), 1);
   EXPECT_EQ(second.maps(0).name(), "maps/ycbv");
 
@@ -158,8 +158,8 @@ TEST_F(RestApiTest, OccupancyGridAsJsonPgmAndPng) {
       ASSERT_EQ(r->body.substr(0, header.size()), header);
       EXPECT_EQ(r->body.size(), header.size() + size_t(w) * h);
     }
-    const cv::Mat image = cv::imdecode(
-        cv::Mat(1, int(r->body.size()), CV_8UC1, r->body.data()), cv::IMREAD_UNCHANGED);
+    const cv::Mat image = cv::imdecode(cv::Mat(1, int(r->body.size()), CV_8UC1, r->body.data()),
+                                       cv::IMREAD_UNCHANGED);
     ASSERT_EQ(image.type(), CV_8UC1);
     ASSERT_EQ(image.cols, w);
     ASSERT_EQ(image.rows, h);
@@ -179,8 +179,8 @@ TEST_F(RestApiTest, HeightMapAsJsonAndAsA16BitPng) {
   ASSERT_TRUE(absl::SimpleAtod(r->get_header_value("X-Skimap-Z-Offset"), &offset));
   ASSERT_TRUE(absl::SimpleAtod(r->get_header_value("X-Skimap-Z-Scale"), &scale));
   EXPECT_DOUBLE_EQ(scale, 0.001);
-  const cv::Mat image = cv::imdecode(cv::Mat(1, int(r->body.size()), CV_8UC1, r->body.data()),
-                                     cv::IMREAD_UNCHANGED);
+  const cv::Mat image =
+      cv::imdecode(cv::Mat(1, int(r->body.size()), CV_8UC1, r->body.data()), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(image.type(), CV_16UC1);
   ASSERT_EQ(image.cols, int(map.width()));
   ASSERT_EQ(image.rows, int(map.height()));
@@ -215,7 +215,8 @@ TEST_F(RestApiTest, VoxelPagesCoverTheMapOnceInKeyOrder) {
   int pages = 0;
   do {
     std::string path = "/v1/maps/ycbv/voxels?pageSize=5000";
-    if (!token.empty()) absl::StrAppend(&path, "&pageToken=", httplib::detail::encode_query_param(token));
+    if (!token.empty())
+      absl::StrAppend(&path, "&pageToken=", httplib::detail::encode_query_param(token));
     const auto page = ParseJson<v1::GetVoxelsResponse>(http().Get(path));
     ASSERT_LE(page.voxels_size(), 5000);
     paged.insert(paged.end(), page.voxels().begin(), page.voxels().end());
@@ -287,9 +288,9 @@ TEST_F(RestApiTest, UpdatePosesMovesAFrameAndBack) {
   EXPECT_EQ(ParseJson<v1::Map>(http().Get("/v1/maps/loop")).stats().voxels(), voxels);
   // An unknown frame: NotFound, nothing applied.
   update->set_sequence(7);
-  EXPECT_THAT(ParseError(http().Post("/v1/maps/loop:updatePoses", ToJsonBody(moved), kJson), 404)
-                  .message(),
-              HasSubstr("7"));
+  EXPECT_THAT(
+      ParseError(http().Post("/v1/maps/loop:updatePoses", ToJsonBody(moved), kJson), 404).message(),
+      HasSubstr("7"));
 }
 
 TEST_F(RestApiTest, AFrameIsValidatedAsInTheStream) {
@@ -301,9 +302,9 @@ TEST_F(RestApiTest, AFrameIsValidatedAsInTheStream) {
   EXPECT_EQ(error.status(), "INVALID_ARGUMENT");
   EXPECT_THAT(error.message(), HasSubstr("intrinsics.fx"));
   // A sequence already integrated: ALREADY_EXISTS, 409.
-  EXPECT_EQ(ParseError(http().Post("/v1/maps/ycbv/frames", ToJsonBody(frames_[3]), kJson), 409)
-                .status(),
-            "ALREADY_EXISTS");
+  EXPECT_EQ(
+      ParseError(http().Post("/v1/maps/ycbv/frames", ToJsonBody(frames_[3]), kJson), 409).status(),
+      "ALREADY_EXISTS");
   // The body's map must be the path's.
   EXPECT_THAT(ParseError(http().Post("/v1/maps/loop2/frames", ToJsonBody(frames_[0]), kJson), 400)
                   .message(),
@@ -327,9 +328,8 @@ TEST_F(RestApiTest, ObjectsOfAnEmptyDatabase) {
 // ---- Errors ----
 
 TEST_F(RestApiTest, MalformedJsonIs400NamingTheField) {
-  const v1::RestError type =
-      ParseError(http().Post("/v1/maps", R"({"mapId": "x", "options": {"resolution": "fine"}})", kJson),
-                 400);
+  const v1::RestError type = ParseError(
+      http().Post("/v1/maps", R"({"mapId": "x", "options": {"resolution": "fine"}})", kJson), 400);
   EXPECT_EQ(type.status(), "INVALID_ARGUMENT");
   EXPECT_THAT(type.message(), HasSubstr("body:"));
   EXPECT_THAT(type.message(), HasSubstr("resolution"));
@@ -341,9 +341,9 @@ TEST_F(RestApiTest, MalformedJsonIs400NamingTheField) {
   EXPECT_THAT(ParseError(http().Post("/v1/maps", "", kJson), 400).message(),
               HasSubstr("body: empty"));
   // Well-formed JSON that the core refuses: the core's message, naming the field.
-  EXPECT_THAT(ParseError(http().Post("/v1/maps", R"({"mapId": "Kitchen 1"})", kJson), 400)
-                  .message(),
-              HasSubstr("map_id"));
+  EXPECT_THAT(
+      ParseError(http().Post("/v1/maps", R"({"mapId": "Kitchen 1"})", kJson), 400).message(),
+      HasSubstr("map_id"));
   EXPECT_THAT(
       ParseError(http().Post("/v1/maps", R"({"mapId": "x", "options": {"resolution": 50}})", kJson),
                  400)
@@ -356,8 +356,9 @@ TEST_F(RestApiTest, MalformedQueryParametersAre400NamingTheParameter) {
       {"/v1/maps/ycbv/voxels?pageSize=many", "query parameter pageSize: \"many\" is not"},
       {"/v1/maps/ycbv/voxels?box=1,2,3", "query parameter box: expected 6 comma-separated"},
       {"/v1/maps/ycbv/voxels?box=1,2,3,4,5,x", "query parameter box: max.z: \"x\" is not a number"},
-      {"/v1/maps/ycbv/voxels?colour=red", "query parameter colour: unknown; this route takes box, "
-                                          "pageSize, pageToken, minVoxelWeight"},
+      {"/v1/maps/ycbv/voxels?colour=red",
+       "query parameter colour: unknown; this route takes box, "
+       "pageSize, pageToken, minVoxelWeight"},
       {"/v1/maps/ycbv/voxels?map=maps/other", "query parameter map: unknown"},
       {"/v1/maps/ycbv/voxels?pageSize=1&pageSize=2", "query parameter pageSize: given 2 times"},
       {"/v1/maps/ycbv/voxels?pageToken=garbage", "page_token"},

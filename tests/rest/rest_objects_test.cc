@@ -36,7 +36,8 @@ TEST(RestObjectsTest, ObjectsAndTheInstancesOfARecognitionMap) {
   build.mutable_params()->set_max_depth(12);
   absl::StatusOr<v1::Operation> op = c->BuildClassifier(build);
   ASSERT_TRUE(op.ok()) << op.status();
-  op = c->WaitDone(op->name(), [](const v1::Operation&) {}, absl::Milliseconds(200));
+  op = c->WaitDone(
+      op->name(), [](const v1::Operation&) {}, absl::Milliseconds(200));
   ASSERT_TRUE(op.ok()) << op.status();
 
   const auto objects = ParseJson<v1::ListObjectsResponse>(http.Get("/v1/objects"));
@@ -54,10 +55,10 @@ TEST(RestObjectsTest, ObjectsAndTheInstancesOfARecognitionMap) {
       "/v1/maps", R"({"mapId": "seen", "options": {"recognition": {"enabled": true}}})", kJson));
   EXPECT_TRUE(map.options().recognition().enabled());
   // No frame yet: no instance, wherever asked.
-  for (const char* query : {"", "?box=-1,-1,-1,1,1,1&objIds=1&minScore=10&pageSize=5",
-                            "?sphere=0,0,0,2"}) {
-    const auto listed =
-        ParseJson<v1::ListInstancesResponse>(http.Get(absl::StrCat("/v1/maps/seen/instances", query)));
+  for (const char* query :
+       {"", "?box=-1,-1,-1,1,1,1&objIds=1&minScore=10&pageSize=5", "?sphere=0,0,0,2"}) {
+    const auto listed = ParseJson<v1::ListInstancesResponse>(
+        http.Get(absl::StrCat("/v1/maps/seen/instances", query)));
     EXPECT_EQ(listed.instances_size(), 0) << query;
     EXPECT_TRUE(listed.next_page_token().empty());
   }

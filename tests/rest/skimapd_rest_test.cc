@@ -28,8 +28,7 @@ constexpr char kJson[] = "application/json";
 std::pair<int, std::string> RunToExit(const std::string& flags) {
   const std::string dir =
       (std::filesystem::temp_directory_path() / absl::StrCat("skimapd_rest_", getpid())).string();
-  const std::string command =
-      absl::StrCat(SKIMAPD_PATH, " --data_dir=", dir, " ", flags, " 2>&1");
+  const std::string command = absl::StrCat(SKIMAPD_PATH, " --data_dir=", dir, " ", flags, " 2>&1");
   FILE* out = popen(command.c_str(), "r");
   std::string text;
   char buf[512];
@@ -58,13 +57,14 @@ TEST(SkimapdRestTest, RestAndGrpcServeTheSameMaps) {
 }
 
 TEST(SkimapdRestTest, AnHttpAddressBeyondLoopbackNeedsInsecure) {
-  const auto [code, text] = RunToExit(absl::StrCat("--address=127.0.0.1:", FreePort(),
-                                                   " --http_address=0.0.0.0:", FreePort()));
+  const auto [code, text] = RunToExit(
+      absl::StrCat("--address=127.0.0.1:", FreePort(), " --http_address=0.0.0.0:", FreePort()));
   EXPECT_EQ(code, 1);
   EXPECT_THAT(text, HasSubstr("--http_address 0.0.0.0:"));
   EXPECT_THAT(text, HasSubstr("beyond loopback"));
   EXPECT_THAT(text, HasSubstr("--insecure"));
-  SkimapdProcess wide(SKIMAPD_PATH, {"--insecure", absl::StrCat("--http_address=0.0.0.0:", FreePort())});
+  SkimapdProcess wide(SKIMAPD_PATH,
+                      {"--insecure", absl::StrCat("--http_address=0.0.0.0:", FreePort())});
   EXPECT_TRUE(wide.Start().ok());
 }
 
@@ -79,9 +79,8 @@ TEST(SkimapdRestTest, AnEmptyHttpAddressTurnsRestOff) {
 TEST(SkimapdRestTest, AnHttpPortInUseStopsTheStart) {
   SkimapdProcess first(SKIMAPD_PATH, {});
   ASSERT_TRUE(first.Start().ok());
-  const auto [code, text] =
-      RunToExit(absl::StrCat("--address=127.0.0.1:", FreePort(),
-                             " --http_address=127.0.0.1:", first.http_port()));
+  const auto [code, text] = RunToExit(absl::StrCat(
+      "--address=127.0.0.1:", FreePort(), " --http_address=127.0.0.1:", first.http_port()));
   EXPECT_EQ(code, 1);
   EXPECT_THAT(text, HasSubstr("cannot listen on 127.0.0.1:"));
   EXPECT_THAT(text, HasSubstr("--http_address"));
@@ -99,8 +98,8 @@ TEST(SkimapdRestTest, FlagsSetTheBodyLimitAndTheCorsOrigins) {
   EXPECT_EQ(ParseError(http.Post("/v1/maps", std::string(1 << 20, ' '), kJson), 400).status(),
             "INVALID_ARGUMENT");
   for (const char* origin : {"https://a.example", "https://b.example"}) {
-    httplib::Result r = http.Options(
-        "/v1/maps", {{"Origin", origin}, {"Access-Control-Request-Method", "POST"}});
+    httplib::Result r =
+        http.Options("/v1/maps", {{"Origin", origin}, {"Access-Control-Request-Method", "POST"}});
     ASSERT_TRUE(r);
     EXPECT_EQ(r->status, 204) << origin;
     EXPECT_EQ(r->get_header_value("Access-Control-Allow-Origin"), origin);

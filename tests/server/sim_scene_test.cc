@@ -27,7 +27,8 @@ class SimSceneTest : public ::testing::Test {
     scene_ = new std::string(GenerateSimScene());
     geometry_ = new SceneGeometry(LoadSceneGeometry(*scene_ + "/scene_geometry.json"));
     server_ = StartServer().release();
-    client_ = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->grpc_port())).release();
+    client_ =
+        client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->grpc_port())).release();
     v1::CreateMapRequest create;
     create.set_map_id("sim");
     create.mutable_options()->set_resolution(kResolution);
