@@ -1,5 +1,6 @@
 #include "server/http/http_server.h"
 
+#include <httplib.h>
 #include <sys/socket.h>
 
 #include <chrono>
@@ -63,7 +64,7 @@ void WriteError(httplib::Response& response, const absl::Status& status, int htt
 }  // namespace
 
 HttpServer::HttpServer(const Options& options, std::vector<RestRoute> routes)
-    : options_(options), routes_(std::move(routes)) {
+    : options_(options), routes_(std::move(routes)), http_(std::make_unique<httplib::Server>()) {
   for (const RestRoute& route : routes_) {
     CompiledRoute compiled;
     compiled.pattern = CompileTemplate(route.path, &compiled.parameters);
@@ -87,7 +88,7 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
     return absl::InvalidArgumentError("HTTP threads and body limit must be >= 1");
   }
   std::unique_ptr<HttpServer> s(new HttpServer(options, std::move(routes)));
-  httplib::Server& http = s->http_;
+  httplib::Server& http = *s->http_;
   const int threads = options.threads;
   http.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   http.set_payload_max_length(options.max_body_bytes);
@@ -100,7 +101,8 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
   HttpServer* self = s.get();
   http.set_pre_routing_handler(
       [self](const httplib::Request& request, httplib::Response& response) {
-        return self->ApplyCors(request, response);
+        return self->ApplyCors(request, response) ? httplib::Server::HandlerResponse::Handled
+                                                  : httplib::Server::HandlerResponse::Unhandled;
       });
   auto dispatch = [self](const httplib::Request& request, httplib::Response& response) {
     self->Dispatch(request, response);
@@ -110,20 +112,22 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
   // Errors httplib answers itself (413 above the body limit, 400 unparsable requests):
   // the same RestError body. Replies that already have one are left alone.
   const size_t limit = options.max_body_bytes;
-  http.set_error_handler([limit](const httplib::Request& request, httplib::Response& response) {
-    if (!response.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    if (response.status == 413) {
-      WriteError(response,
-                 BodyTooLargeError(absl::StrCat(
-                     "body: ", request.get_header_value("Content-Length"),
-                     " bytes exceed the limit of ", limit, " bytes (skimapd --http_max_body_mb)")));
-    } else if (response.status == 404) {
-      WriteError(response, absl::NotFoundError("no such route"));
-    } else {
-      WriteError(response, absl::InvalidArgumentError("malformed HTTP request"), response.status);
-    }
-    return httplib::Server::HandlerResponse::Handled;
-  });
+  http.set_error_handler(httplib::Server::HandlerWithResponse(
+      [limit](const httplib::Request& request, httplib::Response& response) {
+        if (!response.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        if (response.status == 413) {
+          WriteError(response, BodyTooLargeError(absl::StrCat(
+                                   "body: ", request.get_header_value("Content-Length"),
+                                   " bytes exceed the limit of ", limit,
+                                   " bytes (skimapd --http_max_body_mb)")));
+        } else if (response.status == 404) {
+          WriteError(response, absl::NotFoundError("no such route"));
+        } else {
+          WriteError(response, absl::InvalidArgumentError("malformed HTTP request"),
+                     response.status);
+        }
+        return httplib::Server::HandlerResponse::Handled;
+      }));
   http.set_exception_handler(
       [](const httplib::Request&, httplib::Response& response, std::exception_ptr) {
         WriteError(response, absl::InternalError("the request failed inside the server"));
@@ -133,7 +137,7 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
     return absl::UnavailableError(
         absl::StrCat("cannot listen on ", options.address, " (--http_address)"));
   }
-  s->listener_ = std::thread([self] { self->http_.listen_after_bind(); });
+  s->listener_ = std::thread([self] { self->http_->listen_after_bind(); });
   // Stop() only stops a running listener: wait until it runs.
   for (int i = 0; i < 5000 && !http.is_running(); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -144,7 +148,7 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
 HttpServer::~HttpServer() { Stop(); }
 
 void HttpServer::Stop() {
-  http_.stop();
+  http_->stop();
   if (listener_.joinable()) listener_.join();
 }
 
@@ -158,7 +162,9 @@ void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& re
       allowed.push_back(routes_[i].method);
       continue;
     }
-    RestCall call{.http = request};
+    RestCall call{.query = request.params,
+                  .body = request.body,
+                  .accept = request.get_header_value("Accept")};
     for (size_t p = 0; p < compiled_[i].parameters.size(); ++p) {
       call.path[compiled_[i].parameters[p]] = match[p + 1].str();
     }
@@ -200,10 +206,9 @@ std::string HttpServer::MethodsFor(const std::string& path) const {
   return absl::StrJoin(methods, ", ");
 }
 
-httplib::Server::HandlerResponse HttpServer::ApplyCors(const httplib::Request& request,
-                                                       httplib::Response& response) const {
+bool HttpServer::ApplyCors(const httplib::Request& request, httplib::Response& response) const {
   const std::string origin = request.get_header_value("Origin");
-  if (origin.empty()) return httplib::Server::HandlerResponse::Unhandled;
+  if (origin.empty()) return false;
   const bool allowed = OriginAllowed(origin);
   response.set_header("Vary", "Origin");
   if (allowed) {
@@ -211,19 +216,19 @@ httplib::Server::HandlerResponse HttpServer::ApplyCors(const httplib::Request& r
     response.set_header("Access-Control-Expose-Headers", kExposedHeaders);
   }
   if (request.method != "OPTIONS" || !request.has_header("Access-Control-Request-Method")) {
-    return httplib::Server::HandlerResponse::Unhandled;  // CORS headers only
+    return false;  // CORS headers only
   }
   if (!allowed) {
     WriteError(response, absl::PermissionDeniedError(
                              absl::StrCat("origin ", Echo(origin),
                                           " may not call this server from a browser (skimapd "
                                           "--http_cors_origins)")));
-    return httplib::Server::HandlerResponse::Handled;
+    return true;
   }
   const std::string methods = MethodsFor(request.path);
   if (methods.empty()) {
     WriteError(response, absl::NotFoundError(absl::StrCat("no route ", Echo(request.path))));
-    return httplib::Server::HandlerResponse::Handled;
+    return true;
   }
   response.status = 204;
   response.set_header("Access-Control-Allow-Methods", methods);
@@ -231,7 +236,7 @@ httplib::Server::HandlerResponse HttpServer::ApplyCors(const httplib::Request& r
   response.set_header("Access-Control-Allow-Headers",
                       headers.empty() ? "Content-Type, Accept" : headers);
   response.set_header("Access-Control-Max-Age", "600");
-  return httplib::Server::HandlerResponse::Handled;
+  return true;
 }
 
 }  // namespace skimap::server

@@ -19,8 +19,6 @@
 #ifndef SERVER_HTTP_HTTP_SERVER_H_
 #define SERVER_HTTP_HTTP_SERVER_H_
 
-#include <httplib.h>
-
 #include <memory>
 #include <regex>
 #include <string>
@@ -29,6 +27,14 @@
 
 #include "absl/status/statusor.h"
 #include "server/http/rest_route.h"
+
+// cpp-httplib stays out of this header: <httplib.h> includes <resolv.h>, whose `_res`
+// macro breaks headers included after it (Eigen's).
+namespace httplib {
+class Server;
+struct Request;
+struct Response;
+}  // namespace httplib
 
 namespace skimap::server {
 
@@ -67,9 +73,8 @@ class HttpServer {
 
   HttpServer(const Options& options, std::vector<RestRoute> routes);
   void Dispatch(const httplib::Request& request, httplib::Response& response) const;
-  // Preflights and CORS headers; Handled for a preflight (answered here).
-  httplib::Server::HandlerResponse ApplyCors(const httplib::Request& request,
-                                             httplib::Response& response) const;
+  // CORS headers; true for a preflight, answered here.
+  bool ApplyCors(const httplib::Request& request, httplib::Response& response) const;
   bool OriginAllowed(const std::string& origin) const;
   // The methods of the routes whose template matches `path` ("GET, DELETE"); empty if none.
   std::string MethodsFor(const std::string& path) const;
@@ -77,7 +82,7 @@ class HttpServer {
   const Options options_;
   const std::vector<RestRoute> routes_;
   std::vector<CompiledRoute> compiled_;  // one per route
-  httplib::Server http_;
+  std::unique_ptr<httplib::Server> http_;
   std::thread listener_;
   int port_ = 0;
 };

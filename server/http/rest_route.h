@@ -14,21 +14,23 @@
 #ifndef SERVER_HTTP_REST_ROUTE_H_
 #define SERVER_HTTP_REST_ROUTE_H_
 
-#include <httplib.h>
-
 #include <functional>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 
 namespace skimap::server {
 
-// What a handler sees of a request: the HTTP request (query parameters, headers, body)
-// and the values of the path template's parameters, by name ("map" -> "kitchen").
+// What a handler sees of a request (valid during the call): the values of the path
+// template's parameters by name ("map" -> "kitchen"), the query parameters (decoded, in
+// order), the body and the Accept header.
 struct RestCall {
-  const httplib::Request& http;
   std::map<std::string, std::string> path;
+  const std::multimap<std::string, std::string>& query;
+  const std::string& body;
+  std::string accept;
 };
 
 // A successful answer (status 200). Errors are absl::Status values, turned into a
@@ -36,7 +38,8 @@ struct RestCall {
 struct RestReply {
   std::string content_type = "application/json";
   std::string body;
-  httplib::Headers headers;  // extra response headers (X-Skimap-Resolution, ...)
+  // Extra response headers (X-Skimap-Resolution, ...).
+  std::vector<std::pair<std::string, std::string>> headers;
 };
 
 using RestHandler = std::function<absl::StatusOr<RestReply>(const RestCall&)>;

@@ -46,12 +46,11 @@ absl::StatusOr<Request> ParseRequest(const RestCall& call, Body body,
                                      const std::set<std::string>& route_parameters = {}) {
   Request request;
   if (body == Body::kJson) {
-    if (absl::Status s = FromJsonBody(call.http.body, &request); !s.ok()) return s;
+    if (absl::Status s = FromJsonBody(call.body, &request); !s.ok()) return s;
   }
   std::set<std::string> path_fields;
   for (const Binding& b : bindings) path_fields.insert(b.field);
-  if (absl::Status s =
-          FromQueryParameters(call.http.params, path_fields, route_parameters, &request);
+  if (absl::Status s = FromQueryParameters(call.query, path_fields, route_parameters, &request);
       !s.ok()) {
     return s;
   }
@@ -93,15 +92,15 @@ absl::StatusOr<T> Await(const std::function<void(std::function<void(absl::Status
 // The picture format a raster route answers: ?format= first, then the Accept header;
 // JSON by default.
 absl::StatusOr<RasterFormat> FormatOf(const RestCall& call, bool pgm) {
-  if (call.http.has_param("format")) {
-    const std::string format = call.http.get_param_value("format");
+  if (auto it = call.query.find("format"); it != call.query.end()) {
+    const std::string& format = it->second;
     if (format == "json") return RasterFormat::kJson;
     if (format == "png") return RasterFormat::kPng;
     if (format == "pgm" && pgm) return RasterFormat::kPgm;
     return absl::InvalidArgumentError(absl::StrCat("query parameter format: ", Echo(format),
                                                    " is not one of json, png", pgm ? ", pgm" : ""));
   }
-  const std::string accept = call.http.get_header_value("Accept");
+  const std::string& accept = call.accept;
   if (pgm && absl::StrContains(accept, "image/x-portable-graymap")) return RasterFormat::kPgm;
   if (absl::StrContains(accept, "image/png")) return RasterFormat::kPng;
   return RasterFormat::kJson;
@@ -112,10 +111,11 @@ RestReply PictureReply(const Raster& raster, std::string bytes, RasterFormat for
   RestReply reply{
       .content_type = format == RasterFormat::kPgm ? "image/x-portable-graymap" : "image/png",
       .body = std::move(bytes)};
-  reply.headers.emplace("X-Skimap-Resolution", absl::StrCat(raster.resolution()));
-  reply.headers.emplace("X-Skimap-Origin", absl::StrCat(raster.origin_x(), " ", raster.origin_y()));
-  reply.headers.emplace("X-Skimap-Width", absl::StrCat(raster.width()));
-  reply.headers.emplace("X-Skimap-Height", absl::StrCat(raster.height()));
+  reply.headers.emplace_back("X-Skimap-Resolution", absl::StrCat(raster.resolution()));
+  reply.headers.emplace_back("X-Skimap-Origin",
+                             absl::StrCat(raster.origin_x(), " ", raster.origin_y()));
+  reply.headers.emplace_back("X-Skimap-Width", absl::StrCat(raster.width()));
+  reply.headers.emplace_back("X-Skimap-Height", absl::StrCat(raster.height()));
   return reply;
 }
 
@@ -147,8 +147,8 @@ absl::StatusOr<RestReply> HeightMap(const MapService& maps, const RestCall& call
   absl::StatusOr<std::string> image = EncodeHeightMapPng(*map, &z_offset);
   if (!image.ok()) return image.status();
   RestReply reply = PictureReply(*map, *std::move(image), *format);
-  reply.headers.emplace("X-Skimap-Z-Offset", absl::StrCat(z_offset));
-  reply.headers.emplace("X-Skimap-Z-Scale", "0.001");
+  reply.headers.emplace_back("X-Skimap-Z-Offset", absl::StrCat(z_offset));
+  reply.headers.emplace_back("X-Skimap-Z-Scale", "0.001");
   return reply;
 }
 

@@ -252,9 +252,16 @@ TEST_F(RestApiTest, VoxelPagesCoverTheMapOnceInKeyOrder) {
 }
 
 TEST_F(RestApiTest, RadiusSearchAnswersTheCoresVoxels) {
+  // Around a voxel of the map (the first in key order).
+  v1::GetVoxelsRequest one;
+  one.set_map("maps/ycbv");
+  one.set_page_size(1);
+  auto first = core().GetVoxels(one);
+  ASSERT_TRUE(first.ok());
+  ASSERT_EQ(first->voxels_size(), 1);
   v1::RadiusSearchRequest request;
-  request.mutable_center()->set_z(0.05);
-  request.set_radius(0.15);
+  *request.mutable_center() = first->voxels(0).center();
+  request.set_radius(0.1);
   const auto found = ParseJson<v1::RadiusSearchResponse>(
       http().Post("/v1/maps/ycbv:radiusSearch", ToJsonBody(request), kJson));
   request.set_map("maps/ycbv");

@@ -10,12 +10,12 @@
 #define TESTS_REST_REST_FIXTURE_H_
 
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <memory>
 #include <string>
 
 #include "server/server.h"
+#include "tests/rest/http_client.h"
 #include "tests/rest/rest_json.h"
 
 namespace skimap::testing {

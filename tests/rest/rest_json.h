@@ -7,11 +7,11 @@
 
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <string>
 
 #include "skimap/v1/rest.pb.h"
+#include "tests/rest/http_client.h"
 
 namespace skimap::testing {
 

@@ -3,7 +3,6 @@
 // --http_cors_origins; and one map store behind both transports.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <httplib.h>
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -14,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/rest/http_client.h"
 #include "tests/rest/rest_json.h"
 
 namespace skimap::testing {

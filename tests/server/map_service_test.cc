@@ -203,7 +203,7 @@ TEST_F(ServerTest, SecondServerCannotTakeAPortInUse) {
   auto second = server::Server::Start(options);
   ASSERT_FALSE(second.ok());
   EXPECT_EQ(second.status().code(), absl::StatusCode::kUnavailable);
-  EXPECT_THAT(second.status().message(), ::testing::HasSubstr(options.address));
+  EXPECT_THAT(second.status().message(), ::testing::HasSubstr(options.grpc.address));
   // The first server still answers.
   EXPECT_TRUE(client_->ListMaps(v1::ListMapsRequest()).ok());
 }
