@@ -31,6 +31,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_split.h"
 #include "server/server.h"
 
@@ -128,8 +129,10 @@ int main(int argc, char** argv) {
   options.http.insecure = absl::GetFlag(FLAGS_insecure);
   options.http.max_body_bytes = size_t(absl::GetFlag(FLAGS_http_max_body_mb)) << 20;
   options.http.threads = absl::GetFlag(FLAGS_http_threads);
-  options.http.cors_origins =
-      absl::StrSplit(absl::GetFlag(FLAGS_http_cors_origins), ',', absl::SkipWhitespace());
+  for (absl::string_view origin :
+       absl::StrSplit(absl::GetFlag(FLAGS_http_cors_origins), ',', absl::SkipWhitespace())) {
+    options.http.cors_origins.emplace_back(absl::StripAsciiWhitespace(origin));
+  }
   options.maps.max_frame_bytes = size_t(options.grpc.max_message_bytes) / 5 * 4;
   options.maps.worker_threads = absl::GetFlag(FLAGS_worker_threads);
   options.maps.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);

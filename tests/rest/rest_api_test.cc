@@ -68,7 +68,7 @@ TEST_F(RestApiTest, PostedFramesAreInTheMap) {
   EXPECT_EQ(map.name(), "maps/ycbv");
   EXPECT_DOUBLE_EQ(map.options().resolution(), 0.02);
   EXPECT_EQ(map.stats().frames(), 10u);
-  EXPECT_GT(map.stats().voxels(), 10000u);
+  EXPECT_GT(map.stats().voxels(), 1000u);  // 1364 measured (2 cm voxels of a table top)
 }
 
 TEST_F(RestApiTest, CreateListGetDeleteAMap) {
@@ -214,11 +214,11 @@ TEST_F(RestApiTest, VoxelPagesCoverTheMapOnceInKeyOrder) {
   std::string token;
   int pages = 0;
   do {
-    std::string path = "/v1/maps/ycbv/voxels?pageSize=5000";
+    std::string path = "/v1/maps/ycbv/voxels?pageSize=500";
     if (!token.empty())
       absl::StrAppend(&path, "&pageToken=", httplib::detail::encode_query_param(token));
     const auto page = ParseJson<v1::GetVoxelsResponse>(http().Get(path));
-    ASSERT_LE(page.voxels_size(), 5000);
+    ASSERT_LE(page.voxels_size(), 500);
     paged.insert(paged.end(), page.voxels().begin(), page.voxels().end());
     token = page.next_page_token();
     ASSERT_LT(++pages, 1000);
