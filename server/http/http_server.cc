@@ -123,7 +123,10 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
         } else if (response.status == 404) {
           WriteError(response, absl::NotFoundError("no such route"));
         } else {
-          WriteError(response, absl::InvalidArgumentError("malformed HTTP request"),
+          WriteError(response,
+                     absl::InvalidArgumentError(
+                         "malformed HTTP request (a request line or header that does not parse, "
+                         "or a body without Content-Length)"),
                      response.status);
         }
         return httplib::Server::HandlerResponse::Handled;
@@ -162,9 +165,14 @@ void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& re
       allowed.push_back(routes_[i].method);
       continue;
     }
-    RestCall call{.query = request.params,
-                  .body = request.body,
-                  .accept = request.get_header_value("Accept")};
+    // The URL's query only: httplib also adds the fields of a form-encoded body to
+    // request.params, and `curl -d '{json}'` sends JSON as exactly that.
+    httplib::Params query;
+    if (const size_t q = request.target.find('?'); q != std::string::npos) {
+      httplib::detail::parse_query_text(request.target.substr(q + 1), query);
+    }
+    RestCall call{
+        .query = query, .body = request.body, .accept = request.get_header_value("Accept")};
     for (size_t p = 0; p < compiled_[i].parameters.size(); ++p) {
       call.path[compiled_[i].parameters[p]] = match[p + 1].str();
     }

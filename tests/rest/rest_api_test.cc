@@ -99,6 +99,16 @@ TEST_F(RestApiTest, CreateListGetDeleteAMap) {
   EXPECT_THAT(gone.message(), HasSubstr("maps/kitchen"));
 }
 
+TEST_F(RestApiTest, AJsonBodyIsReadWhateverItsContentType) {
+  // `curl -d '{...}'` labels JSON as a form (application/x-www-form-urlencoded): the body
+  // is still the request, and its text is not taken for query parameters.
+  for (const char* type : {"application/x-www-form-urlencoded", "text/plain"}) {
+    const v1::Map map = ParseJson<v1::Map>(http().Post("/v1/maps", R"({"mapId": "form"})", type));
+    EXPECT_EQ(map.name(), "maps/form") << type;
+    ParseJson<v1::DeleteMapResponse>(http().Delete("/v1/maps/form"));
+  }
+}
+
 // The grid as JSON, as a ROS map_server PGM and as a PNG: same size, same cells.
 TEST_F(RestApiTest, OccupancyGridAsJsonPgmAndPng) {
   const std::string path = "/v1/maps/ycbv/occupancyGrid?bandMinZ=0.02&bandMaxZ=0.3&floorMinZ=-0.05";
