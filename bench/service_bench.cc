@@ -40,8 +40,8 @@
 #include "client/map_client.h"
 #include "perception/frame_integrator.h"
 #include "perception/image_codec.h"
-#include "server/grpc/grpc_server.h"
 #include "server/maps/frame_decode.h"
+#include "server/server.h"
 #include "skimap/skimap.h"
 
 ABSL_FLAG(int, frames, 150, "frames per ingestion run (per stream)");
@@ -317,16 +317,16 @@ int main(int argc, char** argv) {
     }
   }
 
-  server::GrpcServer::Options options;
-  options.address = "127.0.0.1:0";
-  options.service.worker_threads = absl::GetFlag(FLAGS_worker_threads);
-  options.service.max_kept_frame_bytes = size_t{256} << 20;
-  auto server = server::GrpcServer::Start(options);
+  server::Server::Options options;
+  options.grpc.address = "127.0.0.1:0";
+  options.maps.worker_threads = absl::GetFlag(FLAGS_worker_threads);
+  options.maps.max_kept_frame_bytes = size_t{256} << 20;
+  auto server = server::Server::Start(options);
   if (!server.ok()) {
     std::fprintf(stderr, "%s\n", server.status().ToString().c_str());
     return 1;
   }
-  auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*server)->port()));
+  auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*server)->grpc_port()));
   int map_counter = 0;
 
   std::printf(
@@ -414,7 +414,7 @@ int main(int argc, char** argv) {
     std::vector<double> idle_ms;
     for (int q = 0; q < 20; ++q) {
       const Clock::time_point t0 = Clock::now();
-      (void)(*server)->service().GetOccupancyGrid(request);
+      (void)(*server)->maps().GetOccupancyGrid(request);
       idle_ms.push_back(Seconds(Clock::now() - t0) * 1e3);
     }
     std::printf("| %.0f cm | %zu | %zu | %.1f | %.1f | %.1f | %.1f |\n", resolution * 100, cells,

@@ -6,7 +6,7 @@
 //       [--parts=ingest,persist]
 //
 // 1. Ingestion over loopback gRPC (MapClient FrameStream, window 8, into in-process
-//    GrpcServers): frames/s with the journal on (maps_db_path: SqliteMapStore, WAL,
+//    Servers): frames/s with the journal on (maps_db_path: SqliteMapStore, WAL,
 //    synchronous=FULL, so every frame is fsynced before its ack) and off (no store), for one
 //    stream and for four streams into four maps (four client threads), at the maximum rate
 //    and paced at --rate frames/s per stream, with the ack latency of each; beside them the
@@ -72,12 +72,12 @@
 #include "client/map_client.h"
 #include "opencv2/imgcodecs.hpp"
 #include "perception/image_codec.h"
-#include "server/grpc/grpc_server.h"
 #include "server/maps/chunk_codec.h"
 #include "server/maps/map_config.h"
 #include "server/maps/map_exporter.h"
 #include "server/maps/map_importer.h"
 #include "server/maps/map_service.h"
+#include "server/server.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
 #include "storage/sqlite_map_store.h"
@@ -601,19 +601,19 @@ void RunIngestionPart(const std::string& data_dir, const std::vector<Encoded>& f
   double append_mean = 0;
   for (double m : append_ms) append_mean += m / append_ms.size();
 
-  server::GrpcServer::Options options;
-  options.address = "127.0.0.1:0";
-  options.service.worker_threads = absl::GetFlag(FLAGS_worker_threads);
+  server::Server::Options options;
+  options.grpc.address = "127.0.0.1:0";
+  options.maps.worker_threads = absl::GetFlag(FLAGS_worker_threads);
   // The journal alone: no snapshot during the runs (they are measured in part 2).
-  options.service.snapshot_interval = absl::InfiniteDuration();
-  options.service.snapshot_records = std::numeric_limits<uint64_t>::max();
-  auto off = server::GrpcServer::Start(options);
+  options.maps.snapshot_interval = absl::InfiniteDuration();
+  options.maps.snapshot_records = std::numeric_limits<uint64_t>::max();
+  auto off = server::Server::Start(options);
   fs::create_directories(data_dir + "/ingest");
   options.maps_db_path = data_dir + "/ingest/maps.sqlite";
-  auto on = server::GrpcServer::Start(options);
+  auto on = server::Server::Start(options);
   if (!off.ok() || !on.ok()) Die("cannot start the servers");
-  auto client_off = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*off)->port()));
-  auto client_on = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*on)->port()));
+  auto client_off = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*off)->grpc_port()));
+  auto client_on = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*on)->grpc_port()));
 
   std::printf(
       "\n### Ingestion over loopback gRPC, journal on vs off\n\n"

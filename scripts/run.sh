@@ -25,6 +25,7 @@ if [[ -z "$dataset" ]]; then
 fi
 
 port=50051
+http_port=8080  # skimapd's default --http_address: the REST API
 cli=(./build/release/client/skimap --server="localhost:$port")
 if "${cli[@]}" maps ls >/dev/null 2>&1; then
   echo "run.sh: something already answers on port $port (an earlier run.sh?); stop it first" >&2
@@ -51,6 +52,8 @@ if [[ "${SKIMAP_RUN_ONCE:-0}" == 1 ]]; then
   exit 0
 fi
 echo "skimapd is serving maps/demo on localhost:$port (try: ${cli[*]} maps info demo)."
+echo "REST API: http://127.0.0.1:$http_port/v1/maps (try: curl -o grid.png" \
+  "'http://127.0.0.1:$http_port/v1/maps/demo/occupancyGrid?format=png'; docs/api.md, \"REST\")."
 echo "Press Ctrl-C to stop it."
 trap 'kill -INT "$server_pid" 2>/dev/null' INT TERM
 wait "$server_pid" || true

@@ -2,6 +2,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 
 namespace skimap::server {
@@ -21,6 +22,14 @@ bool IsLoopbackAddress(const std::string& address) {
     if (!absl::SimpleAtoi(o, &v) || v < 0 || v > 255) return false;
   }
   return true;
+}
+
+absl::Status CheckListenAddress(const std::string& address, bool insecure, const char* flag) {
+  if (insecure || IsLoopbackAddress(address)) return absl::OkStatus();
+  return absl::FailedPreconditionError(absl::StrCat(
+      flag, " ", address,
+      " listens beyond loopback and skimapd has no authentication yet; pass --insecure to "
+      "allow anyone who reaches the port to read and write every map"));
 }
 
 }  // namespace skimap::server

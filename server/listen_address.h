@@ -1,20 +1,27 @@
-// Whether a gRPC listen address stays on this machine.
+// Whether a listen address (gRPC or HTTP) stays on this machine.
 //
 //   IsLoopbackAddress("127.0.0.1:50051")  // true; also localhost:P, [::1]:P, unix:PATH
 //   IsLoopbackAddress("0.0.0.0:50051")    // false: every interface
 //
 // skimapd listens on loopback unless told otherwise: binding any other address needs
-// GrpcServer::Options::insecure (skimapd --insecure) until authentication exists.
+// `insecure` (skimapd --insecure, for the gRPC and the HTTP address alike) until
+// authentication exists.
 //
-// Thread safety: pure function.
+// Thread safety: pure functions.
 #ifndef SERVER_LISTEN_ADDRESS_H_
 #define SERVER_LISTEN_ADDRESS_H_
 
 #include <string>
 
+#include "absl/status/status.h"
+
 namespace skimap::server {
 
 bool IsLoopbackAddress(const std::string& address);
+
+// OK for a loopback address, or any address when `insecure`; FailedPrecondition naming
+// the address, its `flag` (e.g. "--http_address") and --insecure otherwise.
+absl::Status CheckListenAddress(const std::string& address, bool insecure, const char* flag);
 
 }  // namespace skimap::server
 

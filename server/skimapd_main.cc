@@ -6,6 +6,8 @@
 //           [--memory_budget_mb=0] [--snapshot_interval_s=10] [--journal_retain_mb=1024]
 //           [--max_maps=1000] [--max_map_voxels=0] [--max_frame_pixels=0]
 //           [--max_streams_per_client=16]
+//           [--http_address=127.0.0.1:8080] [--http_max_body_mb=32]
+//           [--http_cors_origins=ORIGIN,...] [--http_threads=8]
 //           [--store=postgresql://user@host:port/db [--advertise_address=HOST:PORT]
 //            [--lease_ttl_ms=6000]]
 //
@@ -14,7 +16,8 @@
 // without a live owner on the first request for it, and redirects requests for maps other
 // nodes own (FleetService lists the nodes).
 // Serves skimap.v1.MapService, skimap.v1.ObjectService (its object database is
-// DATA_DIR/objects.sqlite, loaded at start), grpc.health.v1.Health and server reflection.
+// DATA_DIR/objects.sqlite, loaded at start), grpc.health.v1.Health and server reflection
+// over gRPC, and the REST API (docs/api.md, "REST") over HTTP on --http_address.
 // Stops cleanly on SIGINT or SIGTERM: no new calls, open calls get a 2 s grace period,
 // queued frames are finished.
 #include <pthread.h>
@@ -28,14 +31,23 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
-#include "server/fleet/fleet.h"
-#include "server/grpc/grpc_server.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_split.h"
+#include "server/server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
           "gRPC listen address (host:port); beyond loopback only with --insecure");
 ABSL_FLAG(bool, insecure, false,
-          "allow --address beyond loopback without authentication (anyone who reaches the "
-          "port can read and write every map)");
+          "allow --address and --http_address beyond loopback without authentication (anyone "
+          "who reaches the port can read and write every map)");
+ABSL_FLAG(std::string, http_address, "127.0.0.1:8080",
+          "REST (HTTP/1.1 + JSON) listen address (host:port); empty: no HTTP; beyond "
+          "loopback only with --insecure");
+ABSL_FLAG(int, http_max_body_mb, 32, "largest REST request body in MiB; larger: 413");
+ABSL_FLAG(std::string, http_cors_origins, "",
+          "comma list of origins allowed to call the REST API from a browser "
+          "(https://host:port), or * for any; empty: none");
+ABSL_FLAG(int, http_threads, 8, "REST requests served at once");
 ABSL_FLAG(std::string, dataset_root, "",
           "directory under which TrainObjectFromDataset may read datasets; empty: off");
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
@@ -101,55 +113,59 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_memory_budget_mb) < 0 || absl::GetFlag(FLAGS_snapshot_interval_s) < 1 ||
       absl::GetFlag(FLAGS_journal_retain_mb) < 0 || absl::GetFlag(FLAGS_max_maps) < 1 ||
       absl::GetFlag(FLAGS_max_map_voxels) < 0 || absl::GetFlag(FLAGS_max_frame_pixels) < 0 ||
-      absl::GetFlag(FLAGS_max_streams_per_client) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100) {
+      absl::GetFlag(FLAGS_max_streams_per_client) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100 ||
+      absl::GetFlag(FLAGS_http_max_body_mb) < 1 || absl::GetFlag(FLAGS_http_max_body_mb) > 4096 ||
+      absl::GetFlag(FLAGS_http_threads) < 1) {
     std::fprintf(stderr, "skimapd: flag out of range (see --help)\n");
     return 2;
   }
-  skimap::server::GrpcServer::Options options;
-  options.address = absl::GetFlag(FLAGS_address);
-  options.insecure = absl::GetFlag(FLAGS_insecure);
-  options.objects.dataset_root = absl::GetFlag(FLAGS_dataset_root);
-  options.max_message_bytes = max_message_mb << 20;
-  options.service.max_frame_bytes = size_t(options.max_message_bytes) / 5 * 4;
-  options.service.worker_threads = absl::GetFlag(FLAGS_worker_threads);
-  options.service.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);
-  options.service.lazy_load = absl::GetFlag(FLAGS_lazy_load);
-  options.service.memory_budget_bytes = uint64_t(absl::GetFlag(FLAGS_memory_budget_mb)) << 20;
-  options.service.snapshot_interval = absl::Seconds(absl::GetFlag(FLAGS_snapshot_interval_s));
-  options.service.journal_retain_bytes = uint64_t(absl::GetFlag(FLAGS_journal_retain_mb)) << 20;
-  options.grpc.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
-  options.grpc.max_streams_per_client = absl::GetFlag(FLAGS_max_streams_per_client);
-  options.service.max_maps = size_t(absl::GetFlag(FLAGS_max_maps));
-  options.service.max_map_voxels = uint64_t(absl::GetFlag(FLAGS_max_map_voxels));
-  options.service.max_frame_pixels = uint64_t(absl::GetFlag(FLAGS_max_frame_pixels));
-  options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
-  options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();
-  std::unique_ptr<skimap::server::Fleet> fleet;  // outlives the server
-  if (const std::string url = absl::GetFlag(FLAGS_store); !url.empty()) {
-    const std::string advertise = absl::GetFlag(FLAGS_advertise_address);
-    absl::StatusOr<std::unique_ptr<skimap::server::Fleet>> opened = skimap::server::Fleet::Open(
-        url, {.address = advertise.empty() ? options.address : advertise,
-              .lease_ttl = absl::Milliseconds(absl::GetFlag(FLAGS_lease_ttl_ms))});
-    if (!opened.ok()) {
-      // libpq's messages name host and port, never the password.
-      std::fprintf(stderr, "skimapd: --store: %s\n", opened.status().ToString().c_str());
-      return 1;
-    }
-    fleet = *std::move(opened);
-    options.map_store = &fleet->store();
-    options.service.ownership = &fleet->node();
-    options.more_services.push_back(&fleet->service());
+  skimap::server::Server::Options options;
+  options.grpc.address = absl::GetFlag(FLAGS_address);
+  options.grpc.insecure = absl::GetFlag(FLAGS_insecure);
+  options.grpc.max_message_bytes = max_message_mb << 20;
+  options.grpc.map_service.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
+  options.grpc.map_service.max_streams_per_client = absl::GetFlag(FLAGS_max_streams_per_client);
+  options.http.address = absl::GetFlag(FLAGS_http_address);
+  options.http.insecure = absl::GetFlag(FLAGS_insecure);
+  options.http.max_body_bytes = size_t(absl::GetFlag(FLAGS_http_max_body_mb)) << 20;
+  options.http.threads = absl::GetFlag(FLAGS_http_threads);
+  for (absl::string_view origin :
+       absl::StrSplit(absl::GetFlag(FLAGS_http_cors_origins), ',', absl::SkipWhitespace())) {
+    options.http.cors_origins.emplace_back(absl::StripAsciiWhitespace(origin));
   }
+  options.maps.max_frame_bytes = size_t(options.grpc.max_message_bytes) / 5 * 4;
+  options.maps.worker_threads = absl::GetFlag(FLAGS_worker_threads);
+  options.maps.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);
+  options.maps.lazy_load = absl::GetFlag(FLAGS_lazy_load);
+  options.maps.memory_budget_bytes = uint64_t(absl::GetFlag(FLAGS_memory_budget_mb)) << 20;
+  options.maps.snapshot_interval = absl::Seconds(absl::GetFlag(FLAGS_snapshot_interval_s));
+  options.maps.journal_retain_bytes = uint64_t(absl::GetFlag(FLAGS_journal_retain_mb)) << 20;
+  options.maps.max_maps = size_t(absl::GetFlag(FLAGS_max_maps));
+  options.maps.max_map_voxels = uint64_t(absl::GetFlag(FLAGS_max_map_voxels));
+  options.maps.max_frame_pixels = uint64_t(absl::GetFlag(FLAGS_max_frame_pixels));
+  options.objects.dataset_root = absl::GetFlag(FLAGS_dataset_root);
+  options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
   options.objects.threads = std::max(1, absl::GetFlag(FLAGS_worker_threads));
-  absl::StatusOr<std::unique_ptr<skimap::server::GrpcServer>> server =
-      skimap::server::GrpcServer::Start(options);
+  options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();
+  // With a PostgreSQL --store this server is a node of a fleet (libpq's messages name
+  // host and port, never the password).
+  options.fleet.store_url = absl::GetFlag(FLAGS_store);
+  options.fleet.advertise_address = absl::GetFlag(FLAGS_advertise_address);
+  options.fleet.lease_ttl = absl::Milliseconds(absl::GetFlag(FLAGS_lease_ttl_ms));
+  absl::StatusOr<std::unique_ptr<skimap::server::Server>> server =
+      skimap::server::Server::Start(options);
   if (!server.ok()) {
     std::fprintf(stderr, "skimapd: %s\n", server.status().ToString().c_str());
     return 1;
   }
-  std::printf("skimapd: listening on port %d (address %s), data dir %s%s%s\n", (*server)->port(),
-              options.address.c_str(), data_dir.c_str(), fleet ? ", fleet node " : "",
-              fleet ? fleet->node().node_id().c_str() : "");
+  skimap::server::Fleet* fleet = (*server)->fleet();
+  std::printf("skimapd: listening on port %d (address %s), data dir %s%s%s\n",
+              (*server)->grpc_port(), options.grpc.address.c_str(), data_dir.c_str(),
+              fleet ? ", fleet node " : "", fleet ? fleet->node().node_id().c_str() : "");
+  if ((*server)->http_port() != 0) {
+    std::printf("skimapd: REST on http port %d (address %s)\n", (*server)->http_port(),
+                options.http.address.c_str());
+  }
   std::fflush(stdout);
 
   int signal_number = 0;
@@ -157,12 +173,7 @@ int main(int argc, char** argv) {
   std::printf("skimapd: %s, shutting down\n", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
   std::fflush(stdout);
   (*server)->Shutdown();
-  server->reset();  // the last snapshots, under the leases
-  if (fleet != nullptr) {
-    if (absl::Status s = fleet->node().Leave(); !s.ok()) {
-      std::fprintf(stderr, "skimapd: leaving the fleet: %s\n", s.ToString().c_str());
-    }
-  }
+  server->reset();  // the last snapshots, under the leases; then the node leaves the fleet
   std::printf("skimapd: stopped\n");
   return 0;
 }

@@ -1,11 +1,12 @@
 // Fleet: what a skimapd node of a fleet adds to a single server, built from its flags: the
 // shared PostgreSQL store (opened with a fresh node id), the FleetNode (leases, membership,
-// redirects) and its FleetService adapter. skimapd_main wires them into GrpcServer::Options
-// (map_store, service.ownership, more_services).
+// redirects) and its FleetService adapter. Server (server/server.h) opens it from
+// Options::fleet and wires it in (the map store, the map service's ownership hook, the
+// FleetService on the gRPC port).
 //
 //   absl::StatusOr<std::unique_ptr<Fleet>> fleet =
 //       Fleet::Open("postgresql://skimap@db/skimap", {.address = "10.0.0.7:50051"});
-//   ... GrpcServer::Start(options) ...
+//   ... the map service and the gRPC adapter on (*fleet)->store(), node(), service() ...
 //   (*fleet)->node().Leave();   // after the server (and its last snapshots) is gone
 //
 // Thread safety: the members are thread safe.

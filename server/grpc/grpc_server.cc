@@ -3,49 +3,24 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
-#include <algorithm>
-
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "server/listen_address.h"
-#include "storage/sqlite_map_store.h"
 
 namespace skimap::server {
 
-absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& options) {
-  if (!options.insecure && !IsLoopbackAddress(options.address)) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "address ", options.address,
-        " listens beyond loopback and skimapd has no authentication yet; pass --insecure to "
-        "allow anyone who reaches the port to read and write every map"));
+absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& options,
+                                                              MapService* maps,
+                                                              ObjectService* objects) {
+  if (absl::Status s = CheckListenAddress(options.address, options.insecure, "--address");
+      !s.ok()) {
+    return s;
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<GrpcServer> s(new GrpcServer());
-  MapService::Options service = options.service;
-  if (options.map_store != nullptr) {
-    service.store = options.map_store;
-  } else if (!options.maps_db_path.empty()) {
-    absl::StatusOr<std::unique_ptr<storage::SqliteMapStore>> store =
-        storage::SqliteMapStore::Open(options.maps_db_path);
-    if (!store.ok()) {
-      return absl::Status(store.status().code(),
-                          absl::StrCat(options.maps_db_path, ": ", store.status().message()));
-    }
-    s->store_ = *std::move(store);
-    service.store = s->store_.get();
-  }
-  service.max_reply_bytes = std::min<size_t>(service.max_reply_bytes, options.max_message_bytes);
-  // Objects first: maps with recognition take the classifier when they load.
-  absl::StatusOr<std::unique_ptr<ObjectService>> objects = ObjectService::Create(options.objects);
-  if (!objects.ok()) return objects.status();
-  s->objects_ = *std::move(objects);
-  s->grpc_objects_ = std::make_unique<GrpcObjectService>(s->objects_.get());
-  ObjectRegistry* registry = &s->objects_->registry();
-  service.classifier = [registry] { return registry->classifier(); };
-  s->core_ = std::make_unique<MapService>(service);
-  if (absl::Status recovered = s->core_->Recover(); !recovered.ok()) return recovered;
-  s->grpc_service_ = std::make_unique<GrpcMapService>(s->core_.get(), options.grpc);
+  s->grpc_objects_ = std::make_unique<GrpcObjectService>(objects);
+  s->grpc_maps_ = std::make_unique<GrpcMapService>(maps, options.map_service);
   grpc::ServerBuilder builder;
   // gRPC sets SO_REUSEPORT by default: a second skimapd on the same port would start and
   // take half of the connections. Fail to start instead.
@@ -53,7 +28,7 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   builder.AddListeningPort(options.address, grpc::InsecureServerCredentials(), &s->port_);
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);
-  builder.RegisterService(s->grpc_service_.get());
+  builder.RegisterService(s->grpc_maps_.get());
   builder.RegisterService(s->grpc_objects_.get());
   for (grpc::Service* service : options.more_services) builder.RegisterService(service);
   s->server_ = builder.BuildAndStart();

@@ -1,11 +1,11 @@
-// GrpcServer: a running skimapd endpoint: the MapService core, its gRPC adapter, the
-// ObjectService core and adapter, the standard health service and server reflection
-// (v1alpha in gRPC 1.51), on one address.
+// GrpcServer: the gRPC adapter of skimapd on one address: the MapService and
+// ObjectService adapters over cores it does not own, the standard health service and
+// server reflection (v1alpha in gRPC 1.51). Server (server/server.h) builds it.
 //
-//   absl::StatusOr<std::unique_ptr<GrpcServer>> server =
-//       GrpcServer::Start({.address = "127.0.0.1:0"});
-//   int port = (*server)->port();   // the bound port ("...:0" picks a free one)
-//   (*server)->Shutdown();          // stops accepting, cancels calls, drains map workers
+//   absl::StatusOr<std::unique_ptr<GrpcServer>> grpc =
+//       GrpcServer::Start({.address = "127.0.0.1:0"}, &maps, &objects);
+//   int port = (*grpc)->port();   // the bound port ("...:0" picks a free one)
+//   (*grpc)->Shutdown();          // stops accepting, cancels open calls after the grace
 //
 // Thread safety: Shutdown and Wait may be called from any thread; Shutdown is idempotent.
 #ifndef SERVER_GRPC_GRPC_SERVER_H_
@@ -18,11 +18,11 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
 #include "server/grpc/grpc_service.h"
 #include "server/grpc/object_grpc_service.h"
 #include "server/maps/map_service.h"
 #include "server/objects/object_service.h"
-#include "storage/map_store.h"
 
 namespace skimap::server {
 
@@ -34,35 +34,25 @@ class GrpcServer {
     // Allows an address beyond loopback. There is no authentication yet: anyone who can
     // reach the port can read and write every map.
     bool insecure = false;
-    MapService::Options service;
-    // SQLite file where maps persist (skimapd: DATA_DIR/maps.sqlite): every frame and pose
-    // update is journaled before its ack and the maps are reloaded at start. "" keeps maps
-    // in memory only.
-    std::string maps_db_path;
-    // Or a store the caller owns (outlives the server), e.g. another backend or a test's
-    // fault-injecting wrapper; takes precedence over maps_db_path.
-    storage::MapStore* map_store = nullptr;
-    GrpcMapService::Options grpc;
-    // The object service; objects.db_path "" keeps its database in memory only.
-    ObjectService::Options objects;
-    // Largest gRPC message accepted or sent. Frames with images above
-    // service.max_frame_bytes get RESOURCE_EXHAUSTED in their ack; messages above this
-    // limit fail the call with RESOURCE_EXHAUSTED.
+    // The MapService adapter: in-flight frames per stream, streams per client, ...
+    GrpcMapService::Options map_service;
+    // Largest gRPC message accepted or sent. Frames with images above the map service's
+    // max_frame_bytes get RESOURCE_EXHAUSTED in their ack; messages above this limit fail
+    // the call with RESOURCE_EXHAUSTED.
     int max_message_bytes = 80 << 20;
     // Further gRPC services served on the same port (not owned; outlive the server), e.g.
     // a fleet node's FleetService.
     std::vector<grpc::Service*> more_services;
   };
 
-  // Binds and starts serving. FailedPrecondition for an address beyond loopback without
-  // `insecure`; Unavailable if the address cannot be bound; the object database's load
-  // error if it cannot be opened.
-  static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options);
+  // Binds and starts serving `maps` and `objects` (not owned; REQUIRES: both outlive the
+  // server). FailedPrecondition for an address beyond loopback without `insecure`;
+  // Unavailable if the address cannot be bound.
+  static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options, MapService* maps,
+                                                           ObjectService* objects);
   ~GrpcServer();  // Shutdown()
 
   int port() const { return port_; }
-  MapService& service() { return *core_; }
-  ObjectService& object_service() { return *objects_; }
 
   // Stops accepting calls, cancels open ones after `grace` and waits for them.
   void Shutdown(absl::Duration grace = absl::Seconds(2));
@@ -72,11 +62,8 @@ class GrpcServer {
  private:
   GrpcServer() = default;
 
-  std::unique_ptr<storage::MapStore> store_;  // before core_: outlives it
-  std::unique_ptr<ObjectService> objects_;    // before core_: maps ask it for the classifier
   std::unique_ptr<GrpcObjectService> grpc_objects_;
-  std::unique_ptr<MapService> core_;
-  std::unique_ptr<GrpcMapService> grpc_service_;
+  std::unique_ptr<GrpcMapService> grpc_maps_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
 };

@@ -17,8 +17,8 @@
 #include <tuple>
 
 #include "client/map_client.h"
-#include "server/grpc/grpc_server.h"
 #include "server/maps/map_export.h"
+#include "server/server.h"
 #include "storage/sqlite_map_store.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/server/synthetic_scene.h"
@@ -392,12 +392,12 @@ TEST_F(ExportImportTest, TheCliExportsAndImportsFiles) {
 }
 
 TEST(ExportImportInProcessTest, AServerWithoutADataDirAnswersFailedPrecondition) {
-  server::GrpcServer::Options options;
-  options.address = "127.0.0.1:0";
-  options.service.worker_threads = 1;
-  auto server = server::GrpcServer::Start(options);
+  server::Server::Options options;
+  options.grpc.address = "127.0.0.1:0";
+  options.maps.worker_threads = 1;
+  auto server = server::Server::Start(options);
   ASSERT_TRUE(server.ok()) << server.status();
-  auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*server)->port()));
+  auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*server)->grpc_port()));
   v1::CreateMapRequest create;
   create.set_map_id("m");
   ASSERT_TRUE(client->CreateMap(create).ok());
@@ -427,13 +427,13 @@ TEST(ExportImportInProcessTest, AnImportCutShortByACrashIsRemovedAtStart) {
     ASSERT_TRUE((*store)->WriteSnapshot("half", 0, {chunk}, {}).ok());
   }
   {
-    server::GrpcServer::Options options;
-    options.address = "127.0.0.1:0";
-    options.service.worker_threads = 1;
+    server::Server::Options options;
+    options.grpc.address = "127.0.0.1:0";
+    options.maps.worker_threads = 1;
     options.maps_db_path = path;
-    auto server = server::GrpcServer::Start(options);
+    auto server = server::Server::Start(options);
     ASSERT_TRUE(server.ok()) << server.status();
-    auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*server)->port()));
+    auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", (*server)->grpc_port()));
     auto maps = client->ListAllMaps();
     ASSERT_TRUE(maps.ok());
     ASSERT_EQ(maps->size(), 1u);

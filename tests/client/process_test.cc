@@ -31,7 +31,7 @@ TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
   if (pid == 0) {
     const std::string addr_flag = "--address=" + address, dir_flag = "--data_dir=" + dir + "/d";
     execl(SKIMAPD_PATH, SKIMAPD_PATH, addr_flag.c_str(), dir_flag.c_str(), "--worker_threads=1",
-          static_cast<char*>(nullptr));
+          "--http_address=", static_cast<char*>(nullptr));
     _exit(127);
   }
   std::unique_ptr<client::MapClient> client = client::MapClient::Connect(address);

@@ -1,5 +1,6 @@
-// SkimapdProcess: a real skimapd child process on a free loopback port, for tests that must
-// hold against the daemon itself (a crash ends the process, not only a call).
+// SkimapdProcess: a real skimapd child process on a free loopback port (and its REST API on
+// another: http_port()), for tests that must hold against the daemon itself (a crash ends
+// the process, not only a call).
 //
 //   SkimapdProcess server(SKIMAPD_PATH, {"--worker_threads=1"});
 //   ASSERT_TRUE(server.Start().ok());
@@ -58,8 +59,10 @@ class SkimapdProcess {
                       .string();
       std::filesystem::create_directories(data_dir_);
     }
+    http_port_ = FreePort();
     std::vector<std::string> args = {binary_, "--address=" + listen,
-                                     "--data_dir=" + data_dir_ + "/data"};
+                                     "--data_dir=" + data_dir_ + "/data",
+                                     absl::StrCat("--http_address=127.0.0.1:", http_port_)};
     args.insert(args.end(), flags_.begin(), flags_.end());
     pid_ = fork();
     if (pid_ < 0) return absl::InternalError("fork failed");
@@ -130,6 +133,8 @@ class SkimapdProcess {
   }
 
   const std::string& address() const { return address_; }
+  // The REST port on 127.0.0.1 (unless the flags moved or disabled it with --http_address).
+  int http_port() const { return http_port_; }
   // The process id (-1 when not running).
   pid_t pid() const { return pid_; }
   // The --data_dir of the process (maps.sqlite, objects.sqlite); empty before Start.
@@ -141,6 +146,7 @@ class SkimapdProcess {
   const std::vector<std::string> flags_;
   std::string address_, data_dir_;
   pid_t pid_ = -1;
+  int http_port_ = 0;
 };
 
 }  // namespace skimap::testing

@@ -54,6 +54,8 @@ check "the Dockerfile's CMD flags are skimapd's" flags_known "$(grep -E '^CMD' "
 check "compose.yaml keeps a data volume" grep -qE -- '- skimap-data:/var/lib/skimap' "$compose"
 check "compose.yaml publishes on the host's loopback only" \
   grep -qE '"127\.0\.0\.1:50051:50051"' "$compose"
+check "compose.yaml publishes the REST port on the host's loopback only" \
+  grep -qE '"127\.0\.0\.1:8080:8080"' "$compose"
 cli_help=$("$cli" --help 2>&1)
 check "the health check is a command of the skimap CLI" grep -q 'maps ls' <<<"$cli_help"
 check "compose and the Dockerfile use the same health check" \

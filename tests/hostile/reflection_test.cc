@@ -41,7 +41,7 @@ class ReflectionTest : public ::testing::Test {
     if (pid_ == 0) {
       const std::string a = "--address=" + address_, d = "--data_dir=" + dir_.string();
       execl(SKIMAPD_PATH, SKIMAPD_PATH, a.c_str(), d.c_str(), "--worker_threads=1",
-            static_cast<char*>(nullptr));
+            "--http_address=", static_cast<char*>(nullptr));
       _exit(127);
     }
     channel_ = grpc::CreateChannel(address_, grpc::InsecureChannelCredentials());

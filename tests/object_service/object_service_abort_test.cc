@@ -25,7 +25,7 @@ v1::BuildClassifierRequest QuickForest() {
 TEST(ObjectServiceAbortTest, BuildOvertakenByATrainingEndsAbortedAndInstallsNothing) {
   const std::string dir = TempDir();
   {
-    std::unique_ptr<server::GrpcServer> s = StartServer(dir);
+    std::unique_ptr<server::Server> s = StartServer(dir);
     ASSERT_NE(s, nullptr);
     std::unique_ptr<client::ObjectClient> c = Connect(*s);
     for (int id : {kA, kB}) ASSERT_TRUE(Train(*c, id, MiniViews(id, 2)).ok());
@@ -75,7 +75,7 @@ TEST(ObjectServiceAbortTest, BuildOvertakenByATrainingEndsAbortedAndInstallsNoth
   {
     // Nor was anything persisted: after a restart the classifier is still not built, and a
     // new build over all three objects starts, succeeds and serves.
-    std::unique_ptr<server::GrpcServer> s = StartServer(dir);
+    std::unique_ptr<server::Server> s = StartServer(dir);
     ASSERT_NE(s, nullptr);
     std::unique_ptr<client::ObjectClient> c = Connect(*s);
     EXPECT_EQ(c->GetClassifier()->state(), v1::Classifier::NOT_BUILT);

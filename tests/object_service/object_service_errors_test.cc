@@ -28,7 +28,7 @@ class ObjectServiceErrorsTest : public ::testing::Test {
     return Train(*client_, 9, one, detector).status();
   }
 
-  std::unique_ptr<server::GrpcServer> server_;
+  std::unique_ptr<server::Server> server_;
   std::unique_ptr<client::ObjectClient> client_;
   std::vector<v1::TrainingFrame> views_;
 };

@@ -15,27 +15,27 @@
 #include "client/object_client.h"
 #include "client/training_frames.h"
 #include "dataset/reader.h"
-#include "server/grpc/grpc_server.h"
+#include "server/server.h"
 #include "tests/objects/sim_data.h"
 
 namespace skimap::testing {
 
-// A GrpcServer on 127.0.0.1:<free port> whose object database is DATA_DIR/objects.sqlite.
-inline std::unique_ptr<server::GrpcServer> StartServer(const std::string& data_dir) {
-  server::GrpcServer::Options o;
-  o.address = "127.0.0.1:0";
-  o.service.worker_threads = 1;
+// A Server on 127.0.0.1:<free port> (gRPC only) whose object database is DATA_DIR/objects.sqlite.
+inline std::unique_ptr<server::Server> StartServer(const std::string& data_dir) {
+  server::Server::Options o;
+  o.grpc.address = "127.0.0.1:0";
+  o.maps.worker_threads = 1;
   o.objects.db_path = data_dir + "/objects.sqlite";
   o.objects.threads = 2;
   // TrainObjectFromDataset reads the generated test datasets only.
   o.objects.dataset_root = SKIMAP_OBJECTS_TEST_DATA_DIR;
-  absl::StatusOr<std::unique_ptr<server::GrpcServer>> s = server::GrpcServer::Start(o);
+  absl::StatusOr<std::unique_ptr<server::Server>> s = server::Server::Start(o);
   EXPECT_TRUE(s.ok()) << s.status();
   return s.ok() ? *std::move(s) : nullptr;
 }
 
-inline std::unique_ptr<client::ObjectClient> Connect(const server::GrpcServer& s) {
-  return client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", s.port()));
+inline std::unique_ptr<client::ObjectClient> Connect(const server::Server& s) {
+  return client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", s.grpc_port()));
 }
 
 // Training views of obj_id (every `stride`-th of the training frames of sim_data.h).

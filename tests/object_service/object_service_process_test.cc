@@ -22,7 +22,7 @@ pid_t StartSkimapd(const std::string& address, const std::string& data_dir) {
   if (pid == 0) {
     const std::string a = "--address=" + address, d = "--data_dir=" + data_dir;
     execl(SKIMAPD_PATH, SKIMAPD_PATH, a.c_str(), d.c_str(), "--worker_threads=1",
-          static_cast<char*>(nullptr));
+          "--http_address=", static_cast<char*>(nullptr));
     _exit(127);
   }
   return pid;

@@ -78,7 +78,7 @@ void ExpectRecognized(client::ObjectClient& c, int obj_id, double min_vote_share
 TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
   const std::string dir = TempDir();
   {
-    std::unique_ptr<server::GrpcServer> s = StartServer(dir);
+    std::unique_ptr<server::Server> s = StartServer(dir);
     ASSERT_NE(s, nullptr);
     std::unique_ptr<client::ObjectClient> c = Connect(*s);
     // Measured 2026-11-23 (18 training views each): object 1 127 voxels / 1216 centroids,
@@ -161,7 +161,7 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
   }
   {
     // Restart on the same data dir: objects and classifier are reloaded.
-    std::unique_ptr<server::GrpcServer> s = StartServer(dir);
+    std::unique_ptr<server::Server> s = StartServer(dir);
     ASSERT_NE(s, nullptr);
     std::unique_ptr<client::ObjectClient> c = Connect(*s);
     absl::StatusOr<std::vector<v1::Object>> all = c->ListAllObjects();
@@ -180,7 +180,7 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
   }
   {
     // After the delete and a restart: one object, rebuilt from its stored descriptors.
-    std::unique_ptr<server::GrpcServer> s = StartServer(dir);
+    std::unique_ptr<server::Server> s = StartServer(dir);
     ASSERT_NE(s, nullptr);
     std::unique_ptr<client::ObjectClient> c = Connect(*s);
     absl::StatusOr<std::vector<v1::Object>> all = c->ListAllObjects();
@@ -211,7 +211,7 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
 }
 
 TEST(ObjectServiceTest, TrainFromServerDatasetIsAnOperationWithProgress) {
-  std::unique_ptr<server::GrpcServer> s = StartServer(TempDir());
+  std::unique_ptr<server::Server> s = StartServer(TempDir());
   ASSERT_NE(s, nullptr);
   std::unique_ptr<client::ObjectClient> c = Connect(*s);
   v1::TrainObjectFromDatasetRequest r;
@@ -237,7 +237,7 @@ TEST(ObjectServiceTest, TrainFromServerDatasetIsAnOperationWithProgress) {
 }
 
 TEST(ObjectServiceTest, DatasetPathsStayUnderTheDatasetRootAndAreNeverEchoedOutsideIt) {
-  std::unique_ptr<server::GrpcServer> s = StartServer(TempDir());
+  std::unique_ptr<server::Server> s = StartServer(TempDir());
   ASSERT_NE(s, nullptr);
   std::unique_ptr<client::ObjectClient> c = Connect(*s);
   const std::string root = SKIMAP_OBJECTS_TEST_DATA_DIR;
@@ -261,13 +261,13 @@ TEST(ObjectServiceTest, DatasetPathsStayUnderTheDatasetRootAndAreNeverEchoedOuts
   std::filesystem::remove(link);
   // A server without a root reads no dataset at all.
   const std::string dir = TempDir();
-  server::GrpcServer::Options o;
-  o.address = "127.0.0.1:0";
+  server::Server::Options o;
+  o.grpc.address = "127.0.0.1:0";
   o.objects.db_path = dir + "/objects.sqlite";
-  absl::StatusOr<std::unique_ptr<server::GrpcServer>> closed = server::GrpcServer::Start(o);
+  absl::StatusOr<std::unique_ptr<server::Server>> closed = server::Server::Start(o);
   ASSERT_TRUE(closed.ok());
   r.set_dataset_path(objects::testing::MiniDataset());
-  EXPECT_EQ(client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", (*closed)->port()))
+  EXPECT_EQ(client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", (*closed)->grpc_port()))
                 ->TrainObjectFromDataset(r)
                 .status()
                 .code(),

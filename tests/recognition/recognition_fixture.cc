@@ -52,21 +52,21 @@ std::string MiniWithScene() {
   return root.string();
 }
 
-std::unique_ptr<server::GrpcServer> Start(const std::string& data_dir) {
-  server::GrpcServer::Options o;
-  o.address = "127.0.0.1:0";
-  o.service.worker_threads = 2;
+std::unique_ptr<server::Server> Start(const std::string& data_dir) {
+  server::Server::Options o;
+  o.grpc.address = "127.0.0.1:0";
+  o.maps.worker_threads = 2;
   o.maps_db_path = data_dir + "/maps.sqlite";
   o.objects.db_path = data_dir + "/objects.sqlite";
   o.objects.threads = 2;
-  absl::StatusOr<std::unique_ptr<server::GrpcServer>> s = server::GrpcServer::Start(o);
+  absl::StatusOr<std::unique_ptr<server::Server>> s = server::Server::Start(o);
   EXPECT_TRUE(s.ok()) << s.status();
   return s.ok() ? *std::move(s) : nullptr;
 }
 
 void TrainObjects(RecognitionWorld& w) {
   std::unique_ptr<client::ObjectClient> c =
-      client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", w.server->port()));
+      client::ObjectClient::Connect(absl::StrCat("127.0.0.1:", w.server->grpc_port()));
   absl::StatusOr<std::vector<client::TrainingObject>> objects =
       client::ListTrainingObjects(w.dataset);
   ASSERT_TRUE(objects.ok()) << objects.status();
@@ -164,7 +164,7 @@ RecognitionWorld* Build() {
   fs::create_directories(w->data_dir);
   w->server = Start(w->data_dir);
   if (w->server == nullptr) return w;
-  w->client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w->server->port()));
+  w->client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w->server->grpc_port()));
   TrainObjects(*w);
   StreamScene(*w);
   return w;
@@ -183,7 +183,7 @@ void RestartWorld() {
   w.server.reset();
   w.server = Start(w.data_dir);
   ASSERT_NE(w.server, nullptr);
-  w.client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w.server->port()));
+  w.client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w.server->grpc_port()));
 }
 
 std::vector<v1::Instance> AllInstances(client::MapClient& c, const std::string& map) {

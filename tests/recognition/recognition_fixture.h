@@ -14,7 +14,7 @@
 
 #include "Eigen/Geometry"
 #include "client/map_client.h"
-#include "server/grpc/grpc_server.h"
+#include "server/server.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
 namespace skimap::testing {
@@ -29,7 +29,7 @@ struct RecognitionWorld {
   std::string dataset;   // mini dataset root
   std::string scene;     // its test scene folder
   std::string data_dir;  // the server's
-  std::unique_ptr<server::GrpcServer> server;
+  std::unique_ptr<server::Server> server;
   std::unique_ptr<client::MapClient> client;
   std::vector<TruthObject> truth;
   std::vector<v1::InstanceEvent> events;  // WatchInstances from 0 while streaming

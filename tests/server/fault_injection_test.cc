@@ -41,20 +41,20 @@ Eigen::Isometry3d View(int i) {
 }
 
 struct Server {
-  std::unique_ptr<server::GrpcServer> grpc;
+  std::unique_ptr<server::Server> server;
   std::unique_ptr<client::MapClient> client;
 };
 
 Server StartServer(storage::MapStore* store) {
-  server::GrpcServer::Options options;
-  options.address = "127.0.0.1:0";
-  options.service.worker_threads = 1;
-  options.service.snapshot_interval = absl::Hours(1);  // snapshots only when the test asks
+  server::Server::Options options;
+  options.grpc.address = "127.0.0.1:0";
+  options.maps.worker_threads = 1;
+  options.maps.snapshot_interval = absl::Hours(1);  // snapshots only when the test asks
   options.map_store = store;
-  auto grpc = server::GrpcServer::Start(options);
-  EXPECT_TRUE(grpc.ok()) << grpc.status();
-  Server s{*std::move(grpc), nullptr};
-  s.client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", s.grpc->port()));
+  auto started = server::Server::Start(options);
+  EXPECT_TRUE(started.ok()) << started.status();
+  Server s{*std::move(started), nullptr};
+  s.client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", s.server->grpc_port()));
   return s;
 }
 
@@ -110,10 +110,10 @@ Outcome Session(Server& s) {
   };
   for (int i = 0; i < 6; ++i) frame(i);
   update(0);
-  s.grpc->service().SnapshotAll();
+  s.server->maps().SnapshotAll();
   for (int i = 6; i < 8; ++i) frame(i);
   update(1);
-  s.grpc->service().SnapshotAll();
+  s.server->maps().SnapshotAll();
   return out;
 }
 

@@ -198,12 +198,12 @@ TEST_F(ServerTest, VoxelPagesCoverTheMapOnceInKeyOrder) {
 
 TEST_F(ServerTest, SecondServerCannotTakeAPortInUse) {
   // gRPC would share the port (SO_REUSEPORT) and split the clients between two servers.
-  server::GrpcServer::Options options;
-  options.address = absl::StrCat("127.0.0.1:", server_->port());
-  auto second = server::GrpcServer::Start(options);
+  server::Server::Options options;
+  options.grpc.address = absl::StrCat("127.0.0.1:", server_->grpc_port());
+  auto second = server::Server::Start(options);
   ASSERT_FALSE(second.ok());
   EXPECT_EQ(second.status().code(), absl::StatusCode::kUnavailable);
-  EXPECT_THAT(second.status().message(), ::testing::HasSubstr(options.address));
+  EXPECT_THAT(second.status().message(), ::testing::HasSubstr(options.grpc.address));
   // The first server still answers.
   EXPECT_TRUE(client_->ListMaps(v1::ListMapsRequest()).ok());
 }

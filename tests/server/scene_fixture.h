@@ -15,7 +15,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
-#include "server/grpc/grpc_server.h"
+#include "server/server.h"
 
 namespace skimap::testing {
 
@@ -47,11 +47,11 @@ inline std::string GenerateSimScene() {
 }
 
 // An in-process skimapd on 127.0.0.1:<free port>.
-inline std::unique_ptr<server::GrpcServer> StartServer() {
-  server::GrpcServer::Options options;
-  options.address = "127.0.0.1:0";
-  options.service.worker_threads = 2;
-  auto server = server::GrpcServer::Start(options);
+inline std::unique_ptr<server::Server> StartServer() {
+  server::Server::Options options;
+  options.grpc.address = "127.0.0.1:0";
+  options.maps.worker_threads = 2;
+  auto server = server::Server::Start(options);
   EXPECT_TRUE(server.ok()) << server.status();
   return server.ok() ? *std::move(server) : nullptr;
 }

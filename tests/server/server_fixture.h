@@ -10,23 +10,23 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
-#include "server/grpc/grpc_server.h"
+#include "server/server.h"
 
 namespace skimap::testing {
 
 class ServerTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    server::GrpcServer::Options options;
-    options.address = "127.0.0.1:0";
-    options.service.worker_threads = 1;
-    options.service.max_frame_bytes = 4 << 20;
-    options.max_message_bytes = 16 << 20;
-    options.grpc.max_in_flight = 4;
-    auto server = server::GrpcServer::Start(options);
+    server::Server::Options options;
+    options.grpc.address = "127.0.0.1:0";
+    options.maps.worker_threads = 1;
+    options.maps.max_frame_bytes = 4 << 20;
+    options.grpc.max_message_bytes = 16 << 20;
+    options.grpc.map_service.max_in_flight = 4;
+    auto server = server::Server::Start(options);
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = *std::move(server);
-    client_ = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->port()));
+    client_ = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->grpc_port()));
   }
 
   // Creates maps/{id} at `resolution`; fails the test otherwise.
@@ -38,7 +38,7 @@ class ServerTest : public ::testing::Test {
     ASSERT_TRUE(map.ok()) << map.status();
   }
 
-  std::unique_ptr<server::GrpcServer> server_;
+  std::unique_ptr<server::Server> server_;
   std::unique_ptr<client::MapClient> client_;
 };
 

@@ -27,12 +27,13 @@ class SimSceneTest : public ::testing::Test {
     scene_ = new std::string(GenerateSimScene());
     geometry_ = new SceneGeometry(LoadSceneGeometry(*scene_ + "/scene_geometry.json"));
     server_ = StartServer().release();
-    client_ = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->port())).release();
+    client_ =
+        client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->grpc_port())).release();
     v1::CreateMapRequest create;
     create.set_map_id("sim");
     create.mutable_options()->set_resolution(kResolution);
     ASSERT_TRUE(client_->CreateMap(create).ok());
-    StreamWithCli(server_->port(), *scene_, "sim");
+    StreamWithCli(server_->grpc_port(), *scene_, "sim");
   }
   static void TearDownTestSuite() {
     delete client_;
@@ -59,7 +60,7 @@ class SimSceneTest : public ::testing::Test {
 
   static inline std::string* scene_ = nullptr;
   static inline SceneGeometry* geometry_ = nullptr;
-  static inline server::GrpcServer* server_ = nullptr;
+  static inline server::Server* server_ = nullptr;
   static inline client::MapClient* client_ = nullptr;
 };
 
@@ -231,7 +232,7 @@ TEST_F(SimSceneTest, CarvingKnowsMoreFreeSpaceAndKeepsEverySurface) {
   create.mutable_options()->set_resolution(kResolution);
   create.mutable_options()->set_carve_free_space(true);
   ASSERT_TRUE(client_->CreateMap(create).ok());
-  StreamWithCli(server_->port(), *scene_, "carved");
+  StreamWithCli(server_->grpc_port(), *scene_, "carved");
   const v1::OccupancyGrid plain = Grid("maps/sim", 0.05, 1.5);
   const v1::OccupancyGrid carved = Grid("maps/carved", 0.05, 1.5);
   ASSERT_EQ(plain.data().size(), carved.data().size());

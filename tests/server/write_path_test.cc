@@ -19,13 +19,13 @@ const SyntheticCamera kVga{
 
 class WritePathTest : public ::testing::Test {
  protected:
-  void Start(server::GrpcServer::Options options) {
-    options.address = "127.0.0.1:0";
-    options.service.worker_threads = 1;
-    auto server = server::GrpcServer::Start(options);
+  void Start(server::Server::Options options) {
+    options.grpc.address = "127.0.0.1:0";
+    options.maps.worker_threads = 1;
+    auto server = server::Server::Start(options);
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = *std::move(server);
-    client_ = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->port()));
+    client_ = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->grpc_port()));
   }
   void CreateMap(const std::string& id, double resolution) {
     v1::CreateMapRequest request;
@@ -67,13 +67,13 @@ class WritePathTest : public ::testing::Test {
     return codes;
   }
 
-  std::unique_ptr<server::GrpcServer> server_;
+  std::unique_ptr<server::Server> server_;
   std::unique_ptr<client::MapClient> client_;
 };
 
 TEST_F(WritePathTest, AFullWriteQueueAnswersResourceExhausted) {
-  server::GrpcServer::Options options;
-  options.service.queue_capacity = 1;
+  server::Server::Options options;
+  options.maps.queue_capacity = 1;
   Start(options);
   CreateMap("busy", 0.01);
   constexpr int kClients = 12;
@@ -105,9 +105,9 @@ TEST_F(WritePathTest, AFullWriteQueueAnswersResourceExhausted) {
 TEST_F(WritePathTest, MaxInFlightBoundsTheFramesAStreamQueues) {
   // The queue holds as many frames as a stream may have in flight: a client that writes
   // without waiting never overflows it, because the server stops reading at the bound.
-  server::GrpcServer::Options bounded;
-  bounded.service.queue_capacity = 3;
-  bounded.grpc.max_in_flight = 3;
+  server::Server::Options bounded;
+  bounded.maps.queue_capacity = 3;
+  bounded.grpc.map_service.max_in_flight = 3;
   Start(bounded);
   CreateMap("flood", 0.01);
   const std::vector<int> codes = Flood("maps/flood", 30);
@@ -117,9 +117,9 @@ TEST_F(WritePathTest, MaxInFlightBoundsTheFramesAStreamQueues) {
 
   // The same flood with more in flight than the queue holds does overflow it: the bound
   // above is what kept it safe.
-  server::GrpcServer::Options loose;
-  loose.service.queue_capacity = 1;
-  loose.grpc.max_in_flight = 16;
+  server::Server::Options loose;
+  loose.maps.queue_capacity = 1;
+  loose.grpc.map_service.max_in_flight = 16;
   Start(loose);
   CreateMap("flood", 0.01);
   const std::vector<int> loose_codes = Flood("maps/flood", 30);
@@ -129,9 +129,9 @@ TEST_F(WritePathTest, MaxInFlightBoundsTheFramesAStreamQueues) {
 }
 
 TEST_F(WritePathTest, UpdatePosesOnAFrameNoLongerKeptIsFailedPrecondition) {
-  server::GrpcServer::Options options;
+  server::Server::Options options;
   // 160 x 120 raw frames are 38 400 bytes of depth: only the newest one is kept.
-  options.service.max_kept_frame_bytes = 50000;
+  options.maps.max_kept_frame_bytes = 50000;
   Start(options);
   CreateMap("short", 0.05);
   for (int i = 0; i < 3; ++i) {

@@ -100,14 +100,14 @@ double TopNear(const v1::HeightMap& map, double x, double y, double radius) {
 
 TEST(YcbvSceneTest, TableIsAFlatPlaneAboveTheFloorAndObjectsStandOnIt) {
   const std::string scene = std::string(SKIMAP_YCBV_DIR) + "/test/000000";
-  std::unique_ptr<server::GrpcServer> server = StartServer();
+  std::unique_ptr<server::Server> server = StartServer();
   ASSERT_NE(server, nullptr);
-  auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server->port()));
+  auto client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", server->grpc_port()));
   v1::CreateMapRequest create;
   create.set_map_id("ycbv");
   create.mutable_options()->set_resolution(0.01);
   ASSERT_TRUE(client->CreateMap(create).ok());
-  StreamWithCli(server->port(), scene, "ycbv");
+  StreamWithCli(server->grpc_port(), scene, "ycbv");
   auto info = client->GetMap("maps/ycbv");
   ASSERT_TRUE(info.ok());
   ASSERT_EQ(info->stats().frames(), 10u);

@@ -95,7 +95,8 @@ let server, client, dataDir;
 test.before(async () => {
   const port = await freePort();
   dataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'skimap_node_client_'));
-  server = spawn(SKIMAPD, [`--address=127.0.0.1:${port}`, `--data_dir=${dataDir}/data`],
+  server = spawn(SKIMAPD, [`--address=127.0.0.1:${port}`, `--data_dir=${dataDir}/data`,
+    `--http_address=`],
     { stdio: 'ignore' });
   const definition = protoLoader.loadSync('skimap/v1/map_service.proto', {
     includeDirs: [PROTO_DIR], keepCase: true, longs: Number, enums: String, defaults: true,

@@ -88,7 +88,8 @@ class SkimapdTest(unittest.TestCase):
         cls.dir = tempfile.mkdtemp(prefix="skimap_py_client_")
         cls.address = "127.0.0.1:%d" % free_port()
         cls.server = subprocess.Popen(
-            [ARGS.skimapd, "--address=" + cls.address, "--data_dir=" + cls.dir + "/data"],
+            [ARGS.skimapd, "--address=" + cls.address, "--data_dir=" + cls.dir + "/data",
+             "--http_address="],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         cls.channel = grpc.insecure_channel(
             cls.address, options=[("grpc.max_receive_message_length", 64 << 20)])

@@ -1,0 +1,92 @@
+// HttpServer: the HTTP/1.1 adapter of skimapd (cpp-httplib): binds one address, runs a
+// pool of threads, enforces the body limit and the CORS policy, and dispatches requests
+// to a route table (rest_routes.h) of its own matcher, so that a known path with another
+// method answers 405 with an Allow header and an unknown path 404, both as RestError JSON.
+// Every error, whatever produced it, answers a RestError body (http_status.h).
+//
+//   absl::StatusOr<std::unique_ptr<HttpServer>> http =
+//       HttpServer::Start({.address = "127.0.0.1:0"}, MakeRestRoutes(maps, objects));
+//   int port = (*http)->port();
+//   (*http)->Stop();
+//
+// CORS: a request whose Origin is in `cors_origins` (or any, with "*") gets
+// Access-Control-Allow-Origin; a preflight (OPTIONS with Access-Control-Request-Method)
+// from such an origin answers 204 with the methods of the path; from another origin 403.
+// Requests without Origin (curl, servers) are not affected.
+//
+// Thread safety: handlers run concurrently on the pool; Stop may be called from any
+// thread and is idempotent.
+#ifndef SERVER_HTTP_HTTP_SERVER_H_
+#define SERVER_HTTP_HTTP_SERVER_H_
+
+#include <memory>
+#include <regex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/http/rest_route.h"
+
+// cpp-httplib stays out of this header: <httplib.h> includes <resolv.h>, whose `_res`
+// macro breaks headers included after it (Eigen's).
+namespace httplib {
+class Server;
+struct Request;
+struct Response;
+}  // namespace httplib
+
+namespace skimap::server {
+
+class HttpServer {
+ public:
+  struct Options {
+    // host:port; port 0 = any free port. Loopback unless `insecure` (listen_address.h).
+    std::string address = "127.0.0.1:8080";
+    bool insecure = false;
+    int threads = 8;                           // requests served at once, >= 1
+    size_t max_body_bytes = size_t{32} << 20;  // larger bodies: 413
+    // Origins allowed to call from a browser ("https://viewer.example:8443"), or "*" for
+    // any; empty: none (same-origin pages only).
+    std::vector<std::string> cors_origins;
+  };
+
+  // Binds and starts serving `routes` on the pool. FailedPrecondition for an address
+  // beyond loopback without `insecure`; InvalidArgument for a malformed address or
+  // options; Unavailable if the address cannot be bound.
+  static absl::StatusOr<std::unique_ptr<HttpServer>> Start(const Options& options,
+                                                           std::vector<RestRoute> routes);
+  ~HttpServer();  // Stop()
+
+  int port() const { return port_; }
+  // The routes served, in the order given (for the OpenAPI check).
+  const std::vector<RestRoute>& routes() const { return routes_; }
+
+  // Stops accepting connections and waits for the requests being served.
+  void Stop();
+
+ private:
+  struct CompiledRoute {
+    std::regex pattern;
+    std::vector<std::string> parameters;  // names of the template's {parameters}, in order
+  };
+
+  HttpServer(const Options& options, std::vector<RestRoute> routes);
+  void Dispatch(const httplib::Request& request, httplib::Response& response) const;
+  // CORS headers; true for a preflight, answered here.
+  bool ApplyCors(const httplib::Request& request, httplib::Response& response) const;
+  bool OriginAllowed(const std::string& origin) const;
+  // The methods of the routes whose template matches `path` ("GET, DELETE"); empty if none.
+  std::string MethodsFor(const std::string& path) const;
+
+  const Options options_;
+  const std::vector<RestRoute> routes_;
+  std::vector<CompiledRoute> compiled_;  // one per route
+  std::unique_ptr<httplib::Server> http_;
+  std::thread listener_;
+  int port_ = 0;
+};
+
+}  // namespace skimap::server
+
+#endif  // SERVER_HTTP_HTTP_SERVER_H_

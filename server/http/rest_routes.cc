@@ -1,0 +1,230 @@
+#include "server/http/rest_routes.h"
+
+#include <functional>
+#include <future>
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "perception/echo.h"
+#include "server/http/openapi_json.h"  // generated from openapi.json (CMakeLists.txt)
+#include "server/http/raster_images.h"
+#include "server/http/rest_messages.h"
+#include "skimap/v1/rest.pb.h"
+
+namespace skimap::server {
+namespace {
+
+// A request field set from the path: `field` = `pattern` with {param}s replaced.
+struct Binding {
+  const char* field;    // "name"
+  const char* pattern;  // "maps/{map}"
+};
+
+std::string Expand(const std::string& pattern, const RestCall& call) {
+  std::string out = pattern;
+  for (const auto& [param, value] : call.path) {
+    const std::string key = absl::StrCat("{", param, "}");
+    for (size_t at = out.find(key); at != std::string::npos; at = out.find(key, at)) {
+      out.replace(at, key.size(), value);
+      at += value.size();
+    }
+  }
+  return out;
+}
+
+enum class Body { kNone, kJson };
+
+// The route's request message: the JSON body (if the route takes one), then the query
+// parameters (except `route_parameters`), then the path's bindings.
+template <class Request>
+absl::StatusOr<Request> ParseRequest(const RestCall& call, Body body,
+                                     const std::vector<Binding>& bindings,
+                                     const std::set<std::string>& route_parameters = {}) {
+  Request request;
+  if (body == Body::kJson) {
+    if (absl::Status s = FromJsonBody(call.body, &request); !s.ok()) return s;
+  }
+  std::set<std::string> path_fields;
+  for (const Binding& b : bindings) path_fields.insert(b.field);
+  if (absl::Status s = FromQueryParameters(call.query, path_fields, route_parameters, &request);
+      !s.ok()) {
+    return s;
+  }
+  for (const Binding& b : bindings) {
+    if (absl::Status s = BindPathField(b.field, Expand(b.pattern, call), &request); !s.ok()) {
+      return s;
+    }
+  }
+  return request;
+}
+
+RestReply JsonReply(const google::protobuf::Message& message) {
+  return RestReply{.content_type = "application/json", .body = ToJson(message)};
+}
+
+// A route whose reply is the core method's reply message as JSON.
+template <class Request, class Reply>
+RestHandler Unary(Body body, std::vector<Binding> bindings,
+                  std::function<absl::StatusOr<Reply>(const Request&)> method) {
+  return [body, bindings = std::move(bindings),
+          method = std::move(method)](const RestCall& call) -> absl::StatusOr<RestReply> {
+    absl::StatusOr<Request> request = ParseRequest<Request>(call, body, bindings);
+    if (!request.ok()) return request.status();
+    absl::StatusOr<Reply> reply = method(*request);
+    if (!reply.ok()) return reply.status();
+    return JsonReply(*reply);
+  };
+}
+
+// Waits for a core method that answers through a callback (run exactly once, on any thread).
+template <class T>
+absl::StatusOr<T> Await(const std::function<void(std::function<void(absl::StatusOr<T>)>)>& start) {
+  auto promise = std::make_shared<std::promise<absl::StatusOr<T>>>();
+  std::future<absl::StatusOr<T>> future = promise->get_future();
+  start([promise](absl::StatusOr<T> result) { promise->set_value(std::move(result)); });
+  return future.get();
+}
+
+// The picture format a raster route answers: ?format= first, then the Accept header;
+// JSON by default.
+absl::StatusOr<RasterFormat> FormatOf(const RestCall& call, bool pgm) {
+  if (auto it = call.query.find("format"); it != call.query.end()) {
+    const std::string& format = it->second;
+    if (format == "json") return RasterFormat::kJson;
+    if (format == "png") return RasterFormat::kPng;
+    if (format == "pgm" && pgm) return RasterFormat::kPgm;
+    return absl::InvalidArgumentError(absl::StrCat("query parameter format: ", Echo(format),
+                                                   " is not one of json, png", pgm ? ", pgm" : ""));
+  }
+  const std::string& accept = call.accept;
+  if (pgm && absl::StrContains(accept, "image/x-portable-graymap")) return RasterFormat::kPgm;
+  if (absl::StrContains(accept, "image/png")) return RasterFormat::kPng;
+  return RasterFormat::kJson;
+}
+
+template <class Raster>
+RestReply PictureReply(const Raster& raster, std::string bytes, RasterFormat format) {
+  RestReply reply{
+      .content_type = format == RasterFormat::kPgm ? "image/x-portable-graymap" : "image/png",
+      .body = std::move(bytes)};
+  reply.headers.emplace_back("X-Skimap-Resolution", absl::StrCat(raster.resolution()));
+  reply.headers.emplace_back("X-Skimap-Origin",
+                             absl::StrCat(raster.origin_x(), " ", raster.origin_y()));
+  reply.headers.emplace_back("X-Skimap-Width", absl::StrCat(raster.width()));
+  reply.headers.emplace_back("X-Skimap-Height", absl::StrCat(raster.height()));
+  return reply;
+}
+
+const std::vector<Binding> kMap = {{"map", "maps/{map}"}};
+const std::vector<Binding> kMapName = {{"name", "maps/{map}"}};
+
+absl::StatusOr<RestReply> OccupancyGrid(const MapService& maps, const RestCall& call) {
+  absl::StatusOr<RasterFormat> format = FormatOf(call, /*pgm=*/true);
+  if (!format.ok()) return format.status();
+  auto request = ParseRequest<v1::GetOccupancyGridRequest>(call, Body::kNone, kMap, {"format"});
+  if (!request.ok()) return request.status();
+  absl::StatusOr<v1::OccupancyGrid> grid = maps.GetOccupancyGrid(*request);
+  if (!grid.ok()) return grid.status();
+  if (*format == RasterFormat::kJson) return JsonReply(*grid);
+  absl::StatusOr<std::string> image = EncodeOccupancyGrid(*grid, *format);
+  if (!image.ok()) return image.status();
+  return PictureReply(*grid, *std::move(image), *format);
+}
+
+absl::StatusOr<RestReply> HeightMap(const MapService& maps, const RestCall& call) {
+  absl::StatusOr<RasterFormat> format = FormatOf(call, /*pgm=*/false);
+  if (!format.ok()) return format.status();
+  auto request = ParseRequest<v1::GetHeightMapRequest>(call, Body::kNone, kMap, {"format"});
+  if (!request.ok()) return request.status();
+  absl::StatusOr<v1::HeightMap> map = maps.GetHeightMap(*request);
+  if (!map.ok()) return map.status();
+  if (*format == RasterFormat::kJson) return JsonReply(*map);
+  double z_offset = 0;
+  absl::StatusOr<std::string> image = EncodeHeightMapPng(*map, &z_offset);
+  if (!image.ok()) return image.status();
+  RestReply reply = PictureReply(*map, *std::move(image), *format);
+  reply.headers.emplace_back("X-Skimap-Z-Offset", absl::StrCat(z_offset));
+  reply.headers.emplace_back("X-Skimap-Z-Scale", "0.001");
+  return reply;
+}
+
+}  // namespace
+
+const char* OpenApiJson() { return kOpenApiJson; }
+
+std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) {
+  std::vector<RestRoute> routes;
+  routes.push_back({"GET", "/healthz", [](const RestCall&) -> absl::StatusOr<RestReply> {
+                      v1::HealthzResponse health;
+                      health.set_status("SERVING");
+                      return JsonReply(health);
+                    }});
+  routes.push_back({"GET", "/v1/openapi.json", [](const RestCall&) -> absl::StatusOr<RestReply> {
+                      return RestReply{.body = kOpenApiJson};
+                    }});
+  routes.push_back({"GET", "/v1/maps",
+                    Unary<v1::ListMapsRequest, v1::ListMapsResponse>(
+                        Body::kNone, {}, [&maps](const auto& r) { return maps.ListMaps(r); })});
+  routes.push_back({"POST", "/v1/maps",
+                    Unary<v1::CreateMapRequest, v1::Map>(
+                        Body::kJson, {}, [&maps](const auto& r) { return maps.CreateMap(r); })});
+  routes.push_back({"GET", "/v1/maps/{map}",
+                    Unary<v1::GetMapRequest, v1::Map>(
+                        Body::kNone, kMapName, [&maps](const auto& r) { return maps.GetMap(r); })});
+  routes.push_back(
+      {"DELETE", "/v1/maps/{map}",
+       Unary<v1::DeleteMapRequest, v1::DeleteMapResponse>(
+           Body::kNone, kMapName, [&maps](const auto& r) -> absl::StatusOr<v1::DeleteMapResponse> {
+             if (absl::Status s = maps.DeleteMap(r); !s.ok()) return s;
+             return v1::DeleteMapResponse();
+           })});
+  routes.push_back({"GET", "/v1/maps/{map}/occupancyGrid",
+                    [&maps](const RestCall& call) { return OccupancyGrid(maps, call); }});
+  routes.push_back({"GET", "/v1/maps/{map}/heightMap",
+                    [&maps](const RestCall& call) { return HeightMap(maps, call); }});
+  routes.push_back({"GET", "/v1/maps/{map}/voxels",
+                    Unary<v1::GetVoxelsRequest, v1::GetVoxelsResponse>(
+                        Body::kNone, kMap, [&maps](const auto& r) { return maps.GetVoxels(r); })});
+  routes.push_back(
+      {"POST", "/v1/maps/{map}:radiusSearch",
+       Unary<v1::RadiusSearchRequest, v1::RadiusSearchResponse>(
+           Body::kJson, kMap, [&maps](const auto& r) { return maps.RadiusSearch(r); })});
+  routes.push_back(
+      {"POST", "/v1/maps/{map}/frames",
+       Unary<v1::Frame, v1::FrameAck>(Body::kJson, kMap, [&maps](const v1::Frame& frame) {
+         return Await<v1::FrameAck>([&](LiveMap::FrameDone done) {
+           maps.IntegrateFrame(std::make_shared<v1::Frame>(frame), std::move(done));
+         });
+       })});
+  routes.push_back({"POST", "/v1/maps/{map}:updatePoses",
+                    Unary<v1::UpdatePosesRequest, v1::UpdatePosesResponse>(
+                        Body::kJson, kMap, [&maps](const v1::UpdatePosesRequest& r) {
+                          return Await<v1::UpdatePosesResponse>([&](LiveMap::PosesDone done) {
+                            maps.UpdatePoses(std::make_shared<v1::UpdatePosesRequest>(r),
+                                             std::move(done));
+                          });
+                        })});
+  routes.push_back(
+      {"GET", "/v1/maps/{map}/instances",
+       Unary<v1::ListInstancesRequest, v1::ListInstancesResponse>(
+           Body::kNone, kMap, [&maps](const auto& r) { return maps.ListInstances(r); })});
+  routes.push_back({"GET", "/v1/maps/{map}/instances/{id}",
+                    Unary<v1::GetInstanceRequest, v1::Instance>(
+                        Body::kNone, {{"name", "maps/{map}/instances/{id}"}},
+                        [&maps](const auto& r) { return maps.GetInstance(r); })});
+  routes.push_back(
+      {"GET", "/v1/objects",
+       Unary<v1::ListObjectsRequest, v1::ListObjectsResponse>(
+           Body::kNone, {}, [&objects](const auto& r) { return objects.ListObjects(r); })});
+  routes.push_back({"GET", "/v1/objects/{object}",
+                    Unary<v1::GetObjectRequest, v1::Object>(
+                        Body::kNone, {{"name", "objects/{object}"}},
+                        [&objects](const auto& r) { return objects.GetObject(r); })});
+  return routes;
+}
+
+}  // namespace skimap::server

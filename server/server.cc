@@ -1,0 +1,96 @@
+#include "server/server.h"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "absl/strings/str_cat.h"
+#include "server/http/rest_routes.h"
+#include "server/listen_address.h"
+#include "storage/sqlite_map_store.h"
+
+namespace skimap::server {
+
+absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
+  // Refuse a wrong address before anything is loaded or joined.
+  if (absl::Status s = CheckListenAddress(options.grpc.address, options.grpc.insecure, "--address");
+      !s.ok()) {
+    return s;
+  }
+  if (!options.http.address.empty()) {
+    if (absl::Status s =
+            CheckListenAddress(options.http.address, options.http.insecure, "--http_address");
+        !s.ok()) {
+      return s;
+    }
+  }
+  std::unique_ptr<Server> s(new Server());
+  MapService::Options maps = options.maps;
+  GrpcServer::Options grpc = options.grpc;
+  if (!options.fleet.store_url.empty()) {
+    const std::string& advertise = options.fleet.advertise_address;
+    absl::StatusOr<std::unique_ptr<Fleet>> fleet = Fleet::Open(
+        options.fleet.store_url, {.address = advertise.empty() ? grpc.address : advertise,
+                                  .lease_ttl = options.fleet.lease_ttl});
+    if (!fleet.ok()) {
+      return absl::Status(fleet.status().code(),
+                          absl::StrCat("--store: ", fleet.status().message()));
+    }
+    s->fleet_ = *std::move(fleet);
+    maps.store = &s->fleet_->store();
+    maps.ownership = &s->fleet_->node();
+    grpc.more_services.push_back(&s->fleet_->service());
+  } else if (options.map_store != nullptr) {
+    maps.store = options.map_store;
+  } else if (!options.maps_db_path.empty()) {
+    absl::StatusOr<std::unique_ptr<storage::SqliteMapStore>> store =
+        storage::SqliteMapStore::Open(options.maps_db_path);
+    if (!store.ok()) {
+      return absl::Status(store.status().code(),
+                          absl::StrCat(options.maps_db_path, ": ", store.status().message()));
+    }
+    s->store_ = *std::move(store);
+    maps.store = s->store_.get();
+  }
+  maps.max_reply_bytes = std::min<size_t>(maps.max_reply_bytes, grpc.max_message_bytes);
+  // Objects first: maps with recognition take the classifier when they load.
+  absl::StatusOr<std::unique_ptr<ObjectService>> objects = ObjectService::Create(options.objects);
+  if (!objects.ok()) return objects.status();
+  s->objects_ = *std::move(objects);
+  ObjectRegistry* registry = &s->objects_->registry();
+  maps.classifier = [registry] { return registry->classifier(); };
+  s->maps_ = std::make_unique<MapService>(maps);
+  if (absl::Status recovered = s->maps_->Recover(); !recovered.ok()) return recovered;
+
+  absl::StatusOr<std::unique_ptr<GrpcServer>> grpc_server =
+      GrpcServer::Start(grpc, s->maps_.get(), s->objects_.get());
+  if (!grpc_server.ok()) return grpc_server.status();
+  s->grpc_ = *std::move(grpc_server);
+  if (!options.http.address.empty()) {
+    absl::StatusOr<std::unique_ptr<HttpServer>> http =
+        HttpServer::Start(options.http, MakeRestRoutes(*s->maps_, *s->objects_));
+    if (!http.ok()) return http.status();
+    s->http_ = *std::move(http);
+  }
+  return s;
+}
+
+void Server::Shutdown(absl::Duration grace) {
+  if (http_ != nullptr) http_->Stop();
+  if (grpc_ != nullptr) grpc_->Shutdown(grace);
+}
+
+Server::~Server() {
+  Shutdown();
+  http_.reset();
+  grpc_.reset();
+  maps_.reset();  // drains the map workers and writes the last snapshots, under the leases
+  objects_.reset();
+  store_.reset();
+  if (fleet_ != nullptr) {
+    if (absl::Status s = fleet_->node().Leave(); !s.ok()) {
+      std::fprintf(stderr, "skimapd: leaving the fleet: %s\n", s.ToString().c_str());
+    }
+  }
+}
+
+}  // namespace skimap::server
