@@ -156,7 +156,8 @@ absl::StatusOr<RestReply> HeightMap(const MapService& maps, const RestCall& call
 
 const char* OpenApiJson() { return kOpenApiJson; }
 
-std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) {
+std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects,
+                                      MapEvents& events) {
   std::vector<RestRoute> routes;
   routes.push_back({"GET", "/healthz", [](const RestCall&) -> absl::StatusOr<RestReply> {
                       v1::HealthzResponse health;
@@ -189,6 +190,8 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) 
   routes.push_back({"GET", "/v1/maps/{map}/voxels",
                     Unary<v1::GetVoxelsRequest, v1::GetVoxelsResponse>(
                         Body::kNone, kMap, [&maps](const auto& r) { return maps.GetVoxels(r); })});
+  routes.push_back({"GET", "/v1/maps/{map}/events",
+                    [&events](const RestCall& call) { return events.Open(call); }});
   routes.push_back(
       {"POST", "/v1/maps/{map}:radiusSearch",
        Unary<v1::RadiusSearchRequest, v1::RadiusSearchResponse>(

@@ -170,18 +170,25 @@ class LiveMap {
   // `wake` no longer runs.
   uint64_t AddInstanceWatcher(std::function<void()> wake);
   void RemoveInstanceWatcher(uint64_t id);
+  // Map changes: `wake` runs (on the worker, under a mutex: it must only schedule work)
+  // after each write that changed the map (an integrated frame, a pose update) and when
+  // the map is deleted or evicted. Remove returns once `wake` no longer runs.
+  uint64_t AddChangeWatcher(std::function<void()> wake);
+  void RemoveChangeWatcher(uint64_t id);
 
   // Makes queued and future writes answer NotFound (the map left the registry); instance
   // watchers are woken to see it.
   void MarkDeleted() {
     deleted_.store(true, std::memory_order_release);
     NotifyWatchers();
+    NotifyChangeWatchers();
   }
   // Makes queued and future writes answer Unavailable (the map was evicted from memory: a
   // retry reaches its reloaded copy).
   void MarkEvicted(bool evicted = true) {
     evicted_.store(evicted, std::memory_order_release);
     NotifyWatchers();
+    NotifyChangeWatchers();
   }
   // OK, or the error writes get: NotFound after MarkDeleted, Unavailable after MarkEvicted.
   absl::Status Refused() const;
@@ -249,6 +256,7 @@ class LiveMap {
   void ApplyRecognitionMoves(MapState& state, uint64_t position);  // under the lock
   void AfterLoadRecognition();  // worker, after the snapshot was read
   void NotifyWatchers();
+  void NotifyChangeWatchers();
   std::string RetentionPolicy() const;
 
   const std::string id_;
@@ -287,6 +295,7 @@ class LiveMap {
   std::mutex watchers_mu_;
   std::map<uint64_t, std::function<void()>> watchers_;  // guarded by watchers_mu_
   uint64_t next_watcher_ = 1;                           // guarded by watchers_mu_
+  std::map<uint64_t, std::function<void()>> change_watchers_;  // guarded by watchers_mu_
 
   WorkQueue queue_;  // destroyed before the members above, draining tasks while they live
   // After queue_, so destroyed before it: its jobs use the worker. ~LiveMap drains the

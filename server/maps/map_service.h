@@ -139,6 +139,25 @@ class MapService {
   absl::StatusOr<std::unique_ptr<InstanceWatch>> WatchInstances(
       const v1::WatchInstancesRequest& request, std::function<void()> wake) const;
 
+  // WatchMap: a watch of one map's changes (the viewer's live updates). `wake` runs (on a
+  // map thread, under a mutex: it must only schedule work) after each write that changed
+  // map `request.name` (an integrated frame, a pose update) and once when it is deleted or
+  // unloaded, until the watch is destroyed. Errors: the map's lookup (NotFound, ...).
+  class MapWatch {
+   public:
+    ~MapWatch();
+    // True once the watched map was deleted or unloaded: no more wakes will come.
+    bool gone() const { return !map_->Refused().ok(); }
+
+   private:
+    friend class MapService;
+    explicit MapWatch(std::shared_ptr<LiveMap> map) : map_(std::move(map)) {}
+    std::shared_ptr<LiveMap> map_;
+    uint64_t watcher_ = 0;
+  };
+  absl::StatusOr<std::unique_ptr<MapWatch>> WatchMap(const v1::GetMapRequest& request,
+                                                     std::function<void()> wake) const;
+
  private:
   absl::Status CheckRecognition(const RecognitionConfig& config) const;
   absl::StatusOr<std::shared_ptr<LiveMap>> FindMap(const std::string& name,
