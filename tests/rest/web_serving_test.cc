@@ -291,5 +291,53 @@ TEST(MapEventsTest, ShutdownEndsOpenStreamsPromptly) {
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
 }
 
+TEST(VoxelLevelTest, CoarserLevelsMergeBlocksAndPage) {
+  std::unique_ptr<server::Server> server = StartServer("");
+  ASSERT_NE(server, nullptr);
+  httplib::Client http("127.0.0.1", server->http_port());
+  v1::CreateMapRequest create;
+  create.set_map_id("lod");
+  create.mutable_options()->set_resolution(0.01);
+  ASSERT_EQ(http.Post("/v1/maps", ToJsonBody(create), "application/json")->status, 200);
+  for (uint64_t i = 0; i < 3; ++i) {
+    ASSERT_EQ(http.Post("/v1/maps/lod/frames", ToJsonBody(WallFrame("maps/lod", i)),
+                        "application/json")
+                  ->status,
+              200);
+  }
+  auto voxels = [&](const std::string& query) {
+    return ParseJson<v1::GetVoxelsResponse>(http.Get("/v1/maps/lod/voxels?" + query));
+  };
+  const v1::GetVoxelsResponse fine = voxels("pageSize=100000");
+  const v1::GetVoxelsResponse coarse = voxels("pageSize=100000&level=2");
+  ASSERT_GT(fine.voxels_size(), 1000);
+  EXPECT_DOUBLE_EQ(fine.resolution(), 0.01);
+  EXPECT_DOUBLE_EQ(coarse.resolution(), 0.04);
+  // A wall: about 4x fewer voxels per level.
+  EXPECT_LT(coarse.voxels_size(), fine.voxels_size() / 8);
+  EXPECT_GT(coarse.voxels_size(), fine.voxels_size() / 40);
+  double fine_weight = 0, coarse_weight = 0;
+  for (const v1::Voxel& v : fine.voxels()) fine_weight += v.weight();
+  for (const v1::Voxel& v : coarse.voxels()) coarse_weight += v.weight();
+  EXPECT_NEAR(coarse_weight, fine_weight, 1e-3 * fine_weight);
+  // Paged in small pages: the same blocks in the same order.
+  std::vector<std::string> paged;
+  std::string token;
+  do {
+    const v1::GetVoxelsResponse page =
+        voxels("pageSize=37&level=2" + (token.empty() ? "" : "&pageToken=" + token));
+    for (const v1::Voxel& v : page.voxels()) paged.push_back(v.SerializeAsString());
+    token = page.next_page_token();
+  } while (!token.empty());
+  ASSERT_EQ(paged.size(), size_t(coarse.voxels_size()));
+  for (int i = 0; i < coarse.voxels_size(); ++i) {
+    EXPECT_EQ(paged[i], coarse.voxels(i).SerializeAsString()) << i;
+  }
+  httplib::Result bad = http.Get("/v1/maps/lod/voxels?level=9");
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, 400);
+  EXPECT_THAT(bad->body, HasSubstr("level must be in 0..8"));
+}
+
 }  // namespace
 }  // namespace skimap::testing
