@@ -67,8 +67,8 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   s->grpc_ = *std::move(grpc_server);
   if (!options.http.address.empty()) {
     s->events_ = std::make_unique<MapEvents>(*s->maps_, options.events);
-    absl::StatusOr<std::unique_ptr<HttpServer>> http = HttpServer::Start(
-        options.http, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
+    absl::StatusOr<std::unique_ptr<HttpServer>> http =
+        HttpServer::Start(options.http, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
     if (!http.ok()) return http.status();
     s->http_ = *std::move(http);
   }

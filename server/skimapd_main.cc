@@ -185,8 +185,8 @@ int main(int argc, char** argv) {
     std::printf("skimapd: REST on http port %d (address %s)\n", (*server)->http_port(),
                 options.http.address.c_str());
     std::printf("skimapd: viewer %s\n", options.http.web_root.empty()
-                                             ? "off (no --web_root; build web/ to get one)"
-                                             : ("at / from " + options.http.web_root).c_str());
+                                            ? "off (no --web_root; build web/ to get one)"
+                                            : ("at / from " + options.http.web_root).c_str());
   }
   std::fflush(stdout);
 

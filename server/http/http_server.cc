@@ -215,8 +215,7 @@ void HttpServer::Answer(RestReply reply, httplib::Response& response) {
     return;
   }
   response.set_chunked_content_provider(
-      reply.content_type,
-      [stream = std::move(reply.stream)](size_t, httplib::DataSink& sink) {
+      reply.content_type, [stream = std::move(reply.stream)](size_t, httplib::DataSink& sink) {
         stream([&sink](std::string_view piece) {
           return sink.is_writable() && sink.write(piece.data(), piece.size());
         });

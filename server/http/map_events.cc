@@ -84,8 +84,8 @@ void MapEvents::Run(const std::string& name, Stream& stream, MapService::MapWatc
     bool heartbeat = false;
     {
       MutexLock lock(&mu_);
-      const auto deadline = std::chrono::steady_clock::now() +
-                            absl::ToChronoMilliseconds(options_.heartbeat);
+      const auto deadline =
+          std::chrono::steady_clock::now() + absl::ToChronoMilliseconds(options_.heartbeat);
       while (!stopping_ && stream.changes == sent) {
         if (!changed_.WaitUntil(&mu_, deadline) && std::chrono::steady_clock::now() >= deadline) {
           heartbeat = true;

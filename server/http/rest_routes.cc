@@ -156,8 +156,7 @@ absl::StatusOr<RestReply> HeightMap(const MapService& maps, const RestCall& call
 
 const char* OpenApiJson() { return kOpenApiJson; }
 
-std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects,
-                                      MapEvents& events) {
+std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events) {
   std::vector<RestRoute> routes;
   routes.push_back({"GET", "/healthz", [](const RestCall&) -> absl::StatusOr<RestReply> {
                       v1::HealthzResponse health;

@@ -44,8 +44,7 @@ namespace skimap::server {
 
 // The route table over `maps`, `objects` and `events` (not owned; REQUIRES: all outlive
 // every call of the routes' handlers).
-std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects,
-                                      MapEvents& events);
+std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events);
 
 // The OpenAPI 3 document served at /v1/openapi.json (server/http/openapi.json, compiled in).
 const char* OpenApiJson();

@@ -44,9 +44,9 @@ absl::StatusOr<StaticFiles> StaticFiles::Open(const std::string& root) {
   std::error_code error;
   const fs::path real = fs::canonical(root, error);
   if (error || !fs::is_regular_file(real / "index.html", error)) {
-    return absl::NotFoundError(
-        absl::StrCat("--web_root ", root, ": not a directory with an index.html (build the "
-                     "viewer: cd web && npm ci && npm run build)"));
+    return absl::NotFoundError(absl::StrCat("--web_root ", root,
+                                            ": not a directory with an index.html (build the "
+                                            "viewer: cd web && npm ci && npm run build)"));
   }
   return StaticFiles(real.string());
 }
@@ -62,8 +62,7 @@ absl::StatusOr<RestReply> StaticFiles::Get(std::string_view path) const {
   }
   std::error_code error;
   const fs::path real = fs::canonical(fs::path(root_) / relative, error);
-  if (error || !absl::StartsWith(real.string(), root_ + "/") ||
-      !fs::is_regular_file(real, error)) {
+  if (error || !absl::StartsWith(real.string(), root_ + "/") || !fs::is_regular_file(real, error)) {
     return missing;
   }
   std::ifstream in(real, std::ios::binary);

@@ -293,8 +293,8 @@ class LiveMap {
   std::atomic<uint64_t> recognized_frames_{0};
   std::atomic<uint64_t> recognition_changes_{0};  // applied since the last capture
   std::mutex watchers_mu_;
-  std::map<uint64_t, std::function<void()>> watchers_;  // guarded by watchers_mu_
-  uint64_t next_watcher_ = 1;                           // guarded by watchers_mu_
+  std::map<uint64_t, std::function<void()>> watchers_;         // guarded by watchers_mu_
+  uint64_t next_watcher_ = 1;                                  // guarded by watchers_mu_
   std::map<uint64_t, std::function<void()>> change_watchers_;  // guarded by watchers_mu_
 
   WorkQueue queue_;  // destroyed before the members above, draining tasks while they live

@@ -125,8 +125,8 @@ constexpr int kMaxVoxelLevel = 8;
 // merges no more than the slabs it needs. Returns the packed key of the next block if the
 // page is full.
 std::optional<uint64_t> AddVoxelBlocks(const Volume& volume, const KeyBox& scan, int level,
-                                       std::optional<uint64_t> start, size_t page,
-                                       float min_weight, v1::GetVoxelsResponse* out) {
+                                       std::optional<uint64_t> start, size_t page, float min_weight,
+                                       v1::GetVoxelsResponse* out) {
   struct Block {
     double red = 0, green = 0, blue = 0, weight = 0;
   };

@@ -300,10 +300,10 @@ TEST(VoxelLevelTest, CoarserLevelsMergeBlocksAndPage) {
   create.mutable_options()->set_resolution(0.01);
   ASSERT_EQ(http.Post("/v1/maps", ToJsonBody(create), "application/json")->status, 200);
   for (uint64_t i = 0; i < 3; ++i) {
-    ASSERT_EQ(http.Post("/v1/maps/lod/frames", ToJsonBody(WallFrame("maps/lod", i)),
-                        "application/json")
-                  ->status,
-              200);
+    ASSERT_EQ(
+        http.Post("/v1/maps/lod/frames", ToJsonBody(WallFrame("maps/lod", i)), "application/json")
+            ->status,
+        200);
   }
   auto voxels = [&](const std::string& query) {
     return ParseJson<v1::GetVoxelsResponse>(http.Get("/v1/maps/lod/voxels?" + query));
