@@ -30,7 +30,7 @@ int MapEvents::open_streams() {
   return open_;
 }
 
-std::string ServerSentEvent(std::string_view type, std::string_view data) {
+std::string ServerSentEvent(absl::string_view type, absl::string_view data) {
   return absl::StrCat("event: ", type, "\ndata: ", data, "\n\n");
 }
 

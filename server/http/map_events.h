@@ -24,6 +24,7 @@
 #include <string_view>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "absl/time/time.h"
 #include "server/http/rest_route.h"
 #include "server/maps/map_service.h"
@@ -68,7 +69,7 @@ class MapEvents {
 };
 
 // One server-sent event: "event: <type>\ndata: <data>\n\n" (REQUIRES: `data` is one line).
-std::string ServerSentEvent(std::string_view type, std::string_view data);
+std::string ServerSentEvent(absl::string_view type, absl::string_view data);
 
 }  // namespace skimap::server
 

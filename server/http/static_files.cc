@@ -16,7 +16,7 @@
 namespace skimap::server {
 namespace fs = std::filesystem;
 
-const char* MimeTypeOf(std::string_view file_name) {
+const char* MimeTypeOf(absl::string_view file_name) {
   static const std::pair<const char*, const char*> kTypes[] = {
       {".html", "text/html; charset=utf-8"},
       {".js", "application/javascript; charset=utf-8"},
@@ -51,13 +51,13 @@ absl::StatusOr<StaticFiles> StaticFiles::Open(const std::string& root) {
   return StaticFiles(real.string());
 }
 
-absl::StatusOr<RestReply> StaticFiles::Get(std::string_view path) const {
+absl::StatusOr<RestReply> StaticFiles::Get(absl::string_view path) const {
   const absl::Status missing = absl::NotFoundError(absl::StrCat("no file ", Echo(path)));
   if (path.empty() || path.front() != '/') return missing;
   std::string relative(path.substr(1));
   if (relative.empty()) relative = "index.html";
   if (absl::StrContains(relative, '\\') || absl::StrContains(relative, '\0')) return missing;
-  for (std::string_view segment : absl::StrSplit(relative, '/')) {
+  for (absl::string_view segment : absl::StrSplit(relative, '/')) {
     if (segment.empty() || segment.front() == '.') return missing;  // "..", ".", ".git"
   }
   std::error_code error;

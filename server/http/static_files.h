@@ -18,9 +18,9 @@
 #define SERVER_HTTP_STATIC_FILES_H_
 
 #include <string>
-#include <string_view>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "server/http/rest_route.h"
 
 namespace skimap::server {
@@ -32,7 +32,7 @@ class StaticFiles {
 
   // The file at URL path `path` (decoded, starting with '/'). NotFound if there is no
   // such file or the path is refused (above).
-  absl::StatusOr<RestReply> Get(std::string_view path) const;
+  absl::StatusOr<RestReply> Get(absl::string_view path) const;
 
   const std::string& root() const { return root_; }
 
@@ -42,7 +42,7 @@ class StaticFiles {
 };
 
 // The MIME type of a file name by its extension ("application/octet-stream" if unknown).
-const char* MimeTypeOf(std::string_view file_name);
+const char* MimeTypeOf(absl::string_view file_name);
 
 }  // namespace skimap::server
 
