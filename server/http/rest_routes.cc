@@ -189,6 +189,10 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, 
   routes.push_back({"GET", "/v1/maps/{map}/voxels",
                     Unary<v1::GetVoxelsRequest, v1::GetVoxelsResponse>(
                         Body::kNone, kMap, [&maps](const auto& r) { return maps.GetVoxels(r); })});
+  routes.push_back(
+      {"GET", "/v1/maps/{map}/trajectory",
+       Unary<v1::GetTrajectoryRequest, v1::Trajectory>(
+           Body::kNone, kMap, [&maps](const auto& r) { return maps.GetTrajectory(r); })});
   routes.push_back({"GET", "/v1/maps/{map}/events",
                     [&events](const RestCall& call) { return events.Open(call); }});
   routes.push_back(

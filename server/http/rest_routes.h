@@ -12,6 +12,7 @@
 //   GET    /v1/maps/{map}/occupancyGrid      GetOccupancyGrid  ?region&bandMinZ&...&format
 //   GET    /v1/maps/{map}/heightMap          GetHeightMap      ?region&minVoxelWeight&format
 //   GET    /v1/maps/{map}/voxels             GetVoxels         ?box&pageSize&pageToken&level&...
+//   GET    /v1/maps/{map}/trajectory         GetTrajectory     ?maxPoses
 //   GET    /v1/maps/{map}/events             WatchMap          server-sent events (map_events.h)
 //   POST   /v1/maps/{map}:radiusSearch       RadiusSearch      body RadiusSearchRequest
 //   POST   /v1/maps/{map}/frames             IntegrateFrame    body Frame; reply FrameAck

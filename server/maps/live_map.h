@@ -192,6 +192,11 @@ class LiveMap {
   }
   // OK, or the error writes get: NotFound after MarkDeleted, Unavailable after MarkEvicted.
   absl::Status Refused() const;
+  // The pose of every integrated frame, by sequence (as of the writes queued before the
+  // call; runs on the worker).
+  std::vector<std::pair<uint64_t, perception::CameraPose>> Trajectory() {
+    return queue_.Run([this] { return index_.Poses(); });
+  }
   // Returns once the writes queued before the call have run.
   void Drain() {
     queue_.Run([] {});

@@ -103,6 +103,9 @@ class MapService {
   absl::StatusOr<v1::GetVoxelsResponse> GetVoxels(const v1::GetVoxelsRequest& request) const;
   absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(
       const v1::RadiusSearchRequest& request) const;
+  // The camera trajectory (the viewer's): each frame's pose by sequence, thinned evenly to
+  // max_poses (the last frame kept). InvalidArgument for max_poses outside 0..100000.
+  absl::StatusOr<v1::Trajectory> GetTrajectory(const v1::GetTrajectoryRequest& request) const;
 
   // Export and import of whole maps (map_service_transfer.cc); FailedPrecondition without
   // a store. ExportMap snapshots the map and returns its export file, piece by piece

@@ -318,6 +318,39 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
   return out;
 }
 
+absl::StatusOr<v1::Trajectory> MapService::GetTrajectory(
+    const v1::GetTrajectoryRequest& request) const {
+  constexpr int kDefaultPoses = 10000, kMaxPoses = 100000;
+  if (request.max_poses() < 0 || request.max_poses() > kMaxPoses) {
+    return absl::InvalidArgumentError(absl::StrCat("max_poses must be in 0..", kMaxPoses));
+  }
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.map(), "map");
+  if (!map.ok()) return map.status();
+  const size_t max = request.max_poses() == 0 ? kDefaultPoses : request.max_poses();
+  const std::vector<std::pair<uint64_t, perception::CameraPose>> poses = (*map)->Trajectory();
+  v1::Trajectory out;
+  out.set_frames(poses.size());
+  const size_t n = poses.size();
+  const size_t kept = std::min(n, max);
+  for (size_t k = 0; k < kept; ++k) {
+    // Evenly spread indices, the first and the last included.
+    const size_t i = kept == n ? k : (kept == 1 ? n - 1 : k * (n - 1) / (kept - 1));
+    const auto& [sequence, pose] = poses[i];
+    v1::TrajectoryPose* p = out.add_poses();
+    p->set_sequence(sequence);
+    v1::Quaternion* q = p->mutable_pose()->mutable_rotation();
+    q->set_w(pose.rotation.w());
+    q->set_x(pose.rotation.x());
+    q->set_y(pose.rotation.y());
+    q->set_z(pose.rotation.z());
+    v1::Vec3* t = p->mutable_pose()->mutable_translation();
+    t->set_x(pose.translation.x());
+    t->set_y(pose.translation.y());
+    t->set_z(pose.translation.z());
+  }
+  return out;
+}
+
 absl::StatusOr<v1::RadiusSearchResponse> MapService::RadiusSearch(
     const v1::RadiusSearchRequest& request) const {
   absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.map(), "map");

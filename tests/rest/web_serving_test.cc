@@ -343,5 +343,37 @@ TEST(VoxelLevelTest, CoarserLevelsMergeBlocksAndPage) {
   EXPECT_THAT(bad->body, HasSubstr("level must be in 0..8"));
 }
 
+TEST(TrajectoryTest, EveryFramesPoseBySequenceThinnedOnRequest) {
+  std::unique_ptr<server::Server> server = StartServer("");
+  ASSERT_NE(server, nullptr);
+  httplib::Client http("127.0.0.1", server->http_port());
+  v1::CreateMapRequest create;
+  create.set_map_id("walk");
+  ASSERT_EQ(http.Post("/v1/maps", ToJsonBody(create), "application/json")->status, 200);
+  for (uint64_t i = 0; i < 5; ++i) {
+    ASSERT_EQ(http.Post("/v1/maps/walk/frames", ToJsonBody(WallFrame("maps/walk", 10 + i)),
+                        "application/json")
+                  ->status,
+              200);
+  }
+  const v1::Trajectory all = ParseJson<v1::Trajectory>(http.Get("/v1/maps/walk/trajectory"));
+  EXPECT_EQ(all.frames(), 5u);
+  ASSERT_EQ(all.poses_size(), 5);
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(all.poses(i).sequence(), 10u + i);
+    EXPECT_NEAR(all.poses(i).pose().translation().x(), 0.05 * (10 + i), 1e-9);
+    EXPECT_NEAR(all.poses(i).pose().rotation().w(), 1, 1e-9);
+  }
+  const v1::Trajectory thin =
+      ParseJson<v1::Trajectory>(http.Get("/v1/maps/walk/trajectory?maxPoses=3"));
+  EXPECT_EQ(thin.frames(), 5u);
+  ASSERT_EQ(thin.poses_size(), 3);
+  EXPECT_EQ(thin.poses(0).sequence(), 10u);
+  EXPECT_EQ(thin.poses(1).sequence(), 12u);
+  EXPECT_EQ(thin.poses(2).sequence(), 14u);
+  EXPECT_EQ(http.Get("/v1/maps/walk/trajectory?maxPoses=-1")->status, 400);
+  EXPECT_EQ(http.Get("/v1/maps/nope/trajectory")->status, 404);
+}
+
 }  // namespace
 }  // namespace skimap::testing

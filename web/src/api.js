@@ -44,6 +44,8 @@ export async function getVoxels(id, level, cap, onPage) {
   return { count, resolution, truncated: Boolean(token) };
 }
 
+export const getTrajectory = (id, maxPoses) => getJson(`/v1/maps/${id}/trajectory?maxPoses=${maxPoses}`);
+
 export function getOccupancyGrid(id, band) {
   const q = band ? `?bandMinZ=${band.min}&bandMaxZ=${band.max}` : '';
   return getJson(`/v1/maps/${id}/occupancyGrid${q}`);

@@ -117,9 +117,14 @@ const loaders = {
         ` (${(l.resolution * 100).toFixed(1)} cm boxes${l.truncated ? ', truncated' : ''})`;
     });
     if (lod) document.body.dataset.voxelsShown = String(lod.shown);
-    if ($('show-instances').checked) {
+    document.body.dataset.trajectory = String(await view3d.loadTrajectory(map));
+    if (map.options?.recognition?.enabled) {
       const instances = await view3d.loadInstances(map, objectExtent, $('instances'));
       document.body.dataset.instances = instances ? String(instances.length) : 'none';
+    } else {
+      $('instances').replaceChildren();
+      view3d.instances.clear();
+      document.body.dataset.instances = 'none';
     }
   },
   async grid(map) {
@@ -227,6 +232,10 @@ for (const id of ['band-min', 'band-max']) {
     refreshView();
   });
 }
+$('show-trajectory').addEventListener('change', () => {
+  view3d.trajectory.visible = $('show-trajectory').checked;
+  view3d.requestRender();
+});
 $('show-instances').addEventListener('change', () => {
   view3d.instances.visible = $('show-instances').checked;
   view3d.requestRender();

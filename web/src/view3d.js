@@ -8,7 +8,7 @@
 // per level), and stops paging at 2 x budget whatever the level gave.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { getVoxels, listInstances } from './api.js';
+import { getTrajectory, getVoxels, listInstances } from './api.js';
 
 export const DEFAULT_BUDGET = 150000;
 const BACKGROUND = 0x15171a;
@@ -43,6 +43,8 @@ export class View3D {
     this.voxels = null;
     this.instances = new THREE.Group();
     this.scene.add(this.instances);
+    this.trajectory = new THREE.Group();
+    this.scene.add(this.trajectory);
     this.framed = null;  // the map whose bounds the camera was fitted to
     this.loading = null;
     new ResizeObserver(() => this.resize()).observe(container);
@@ -77,7 +79,7 @@ export class View3D {
     const centre = min.clone().add(max).multiplyScalar(0.5);
     const size = Math.max(max.distanceTo(min), 0.5);
     this.controls.target.copy(centre);
-    this.camera.position.copy(centre).add(new THREE.Vector3(0.6, -0.9, 0.8).multiplyScalar(size));
+    this.camera.position.copy(centre).add(new THREE.Vector3(0.35, -0.55, 0.45).multiplyScalar(size));
     this.camera.near = size / 1000;
     this.camera.far = size * 20;
     this.camera.updateProjectionMatrix();
@@ -172,21 +174,51 @@ export class View3D {
     return instances;
   }
 
-  // Pixels of the last frame that differ from the background (for tests and the status).
-  drawnPixels() {
-    this.renderer.render(this.scene, this.camera);
-    const gl = this.renderer.getContext();
-    const w = gl.drawingBufferWidth;
-    const h = gl.drawingBufferHeight;
-    const pixels = new Uint8Array(w * h * 4);
-    gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
-    const bg = new THREE.Color(BACKGROUND);
-    const [br, bgc, bb] = [bg.r * 255, bg.g * 255, bg.b * 255].map(Math.round);
-    let drawn = 0;
-    for (let i = 0; i < pixels.length; i += 4) {
-      if (Math.abs(pixels[i] - br) + Math.abs(pixels[i + 1] - bgc) + Math.abs(pixels[i + 2] - bb) > 12) drawn++;
+  // The camera trajectory (GET /v1/maps/{map}/trajectory): a line through the camera
+  // positions, a dot per frame, the last camera's axes. Returns the number of poses.
+  async loadTrajectory(map) {
+    const id = map.name.replace(/^maps\//, '');
+    const trajectory = await getTrajectory(id, 5000);
+    for (const child of [...this.trajectory.children]) {
+      child.geometry?.dispose();
+      this.trajectory.remove(child);
     }
-    return { drawn, total: w * h };
+    const poses = trajectory.poses || [];
+    if (!poses.length) return 0;
+    const points = poses.map(({ pose }) => new THREE.Vector3(
+      pose.translation?.x || 0, pose.translation?.y || 0, pose.translation?.z || 0));
+    const geometry = new THREE.BufferGeometry().setFromPoints(points);
+    this.trajectory.add(new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: 0x33ddff })));
+    this.trajectory.add(new THREE.Points(geometry.clone(), new THREE.PointsMaterial({ color: 0x33ddff, size: 5, sizeAttenuation: false })));
+    const last = poses[poses.length - 1].pose;
+    const axes = new THREE.AxesHelper(0.08);
+    axes.position.copy(points[points.length - 1]);
+    const r = last.rotation || {};
+    axes.quaternion.set(r.x || 0, r.y || 0, r.z || 0, r.w ?? 1);
+    this.trajectory.add(axes);
+    this.requestRender();
+    return poses.length;
+  }
+
+  // Pixels of the view that differ from the empty scene's (for tests and the status).
+  drawnPixels() {
+    const read = () => {
+      this.renderer.render(this.scene, this.camera);
+      const gl = this.renderer.getContext();
+      const pixels = new Uint8Array(gl.drawingBufferWidth * gl.drawingBufferHeight * 4);
+      gl.readPixels(0, 0, gl.drawingBufferWidth, gl.drawingBufferHeight, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
+      return pixels;
+    };
+    const shown = this.scene.children.map((c) => c.visible);
+    this.scene.children.forEach((c) => { c.visible = c.isLight === true; });
+    const empty = read();
+    this.scene.children.forEach((c, i) => { c.visible = shown[i]; });
+    const full = read();
+    let drawn = 0;
+    for (let i = 0; i < full.length; i += 4) {
+      if (Math.abs(full[i] - empty[i]) + Math.abs(full[i + 1] - empty[i + 1]) + Math.abs(full[i + 2] - empty[i + 2]) > 12) drawn++;
+    }
+    return { drawn, total: full.length / 4 };
   }
 }
 

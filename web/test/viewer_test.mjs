@@ -3,7 +3,7 @@
 // map "ycbv" over REST (POST /v1/maps/ycbv/frames), opens the viewer in Debian's headless
 // chromium (playwright-core) and checks that
 //   - the map list shows the map with its voxel count (as GET /v1/maps/ycbv says),
-//   - the 3D canvas drew non-background pixels,
+//   - the 3D canvas drew non-background pixels, and the trajectory has a pose per frame,
 //   - the grid tab drew the grid and shows metric coordinates under the mouse,
 //   - posting the tenth frame updates the shown stats live, without a reload.
 // Screenshots go to --out (viewer-3d.png, viewer-grid.png, viewer-height.png,
@@ -145,9 +145,12 @@ try {
   await page.waitForSelector('body[data-voxels-shown]', { timeout: 60000 });
   const shown = Number(await page.getAttribute('body', 'data-voxels-shown'));
   check(shown > 1000, `the 3D view holds ${shown} voxels (${await page.textContent('#lod')})`);
+  await page.waitForSelector('body[data-trajectory]', { timeout: 30000 });
+  check(Number(await page.getAttribute('body', 'data-trajectory')) === Number(before.stats.frames),
+        `the trajectory has ${await page.getAttribute('body', 'data-trajectory')} poses`);
   await page.waitForTimeout(500);
   const pixels = await page.evaluate(() => window.skimapViewer.drawnPixels());
-  check(pixels.drawn > 0.02 * pixels.total, `the 3D canvas drew ${pixels.drawn} of ${pixels.total} pixels`);
+  check(pixels.drawn > 0.02 * pixels.total && pixels.drawn < 0.9 * pixels.total, `the 3D canvas drew ${pixels.drawn} of ${pixels.total} pixels`);
   await page.screenshot({ path: join(args.out, 'viewer-3d.png') });
 
   // The grid tab.
