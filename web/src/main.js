@@ -112,12 +112,12 @@ function objectExtent(object) {
 
 const loaders = {
   async view3d(map) {
+    document.body.dataset.trajectory = String(await view3d.loadTrajectory(map));
     const lod = await view3d.load(map, (l) => {
       $('lod').textContent = `${count(l.shown)} of ${count(l.total)} voxels shown, level ${l.level}` +
         ` (${(l.resolution * 100).toFixed(1)} cm boxes${l.truncated ? ', truncated' : ''})`;
     });
     if (lod) document.body.dataset.voxelsShown = String(lod.shown);
-    document.body.dataset.trajectory = String(await view3d.loadTrajectory(map));
     if (map.options?.recognition?.enabled) {
       const instances = await view3d.loadInstances(map, objectExtent, $('instances'));
       document.body.dataset.instances = instances ? String(instances.length) : 'none';
@@ -207,6 +207,7 @@ function select(id) {
   state.stale = { view3d: true, grid: true, height: true };
   state.band = null;
   view3d.framed = null;
+  view3d.trajectoryBox = null;
   if (state.events) state.events.close();
   state.events = api.watchMap(id, onMapEvent, (on) => {
     $('live').textContent = on ? 'live' : 'offline';

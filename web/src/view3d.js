@@ -74,8 +74,10 @@ export class View3D {
     const b = map.stats && map.stats.bounds;
     if (!b || this.framed === map.name) return;
     this.framed = map.name;
-    const min = new THREE.Vector3(b.min.x, b.min.y, b.min.z);
-    const max = new THREE.Vector3(b.max.x, b.max.y, b.max.z);
+    const box = new THREE.Box3(new THREE.Vector3(b.min.x, b.min.y, b.min.z),
+                               new THREE.Vector3(b.max.x, b.max.y, b.max.z));
+    if (this.trajectoryBox) box.union(this.trajectoryBox);  // the cameras in view too
+    const { min, max } = box;
     const centre = min.clone().add(max).multiplyScalar(0.5);
     const size = Math.max(max.distanceTo(min), 0.5);
     this.controls.target.copy(centre);
@@ -190,12 +192,20 @@ export class View3D {
     const geometry = new THREE.BufferGeometry().setFromPoints(points);
     this.trajectory.add(new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: 0x33ddff })));
     this.trajectory.add(new THREE.Points(geometry.clone(), new THREE.PointsMaterial({ color: 0x33ddff, size: 5, sizeAttenuation: false })));
+    this.trajectoryBox = new THREE.Box3().setFromPoints(points);
+    // The last camera as a small frustum (camera frame: x right, y down, z forward).
     const last = poses[poses.length - 1].pose;
-    const axes = new THREE.AxesHelper(0.08);
-    axes.position.copy(points[points.length - 1]);
+    const [w, h, d] = [0.04, 0.03, 0.06];
+    const corners = [[-w, -h, d], [w, -h, d], [w, h, d], [-w, h, d]];
+    const segments = [];
+    corners.forEach((c, i) => segments.push(0, 0, 0, ...c, ...c, ...corners[(i + 1) % 4]));
+    const frustum = new THREE.LineSegments(
+      new THREE.BufferGeometry().setAttribute('position', new THREE.Float32BufferAttribute(segments, 3)),
+      new THREE.LineBasicMaterial({ color: 0x33ddff }));
+    frustum.position.copy(points[points.length - 1]);
     const r = last.rotation || {};
-    axes.quaternion.set(r.x || 0, r.y || 0, r.z || 0, r.w ?? 1);
-    this.trajectory.add(axes);
+    frustum.quaternion.set(r.x || 0, r.y || 0, r.z || 0, r.w ?? 1);
+    this.trajectory.add(frustum);
     this.requestRender();
     return poses.length;
   }
