@@ -10,7 +10,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { getTrajectory, getVoxels, listInstances } from './api.js';
 
-export const DEFAULT_BUDGET = 150000;
+export const DEFAULT_BUDGET = 200000;
 const BACKGROUND = 0x15171a;
 
 export function chooseLevel(voxels, budget) {
