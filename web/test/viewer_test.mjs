@@ -6,8 +6,9 @@
 //   - the 3D canvas drew non-background pixels, and the trajectory has a pose per frame,
 //   - the grid tab drew the grid and shows metric coordinates under the mouse,
 //   - posting the tenth frame updates the shown stats live, without a reload.
+// and that a small voxel budget (?budget=1000) makes it ask for coarser levels.
 // Screenshots go to --out (viewer-3d.png, viewer-grid.png, viewer-height.png,
-// viewer-live.png).
+// viewer-live.png, viewer-lod.png).
 //
 //   node web/test/viewer_test.mjs --skimapd=build/release/server/skimapd \
 //     --web_root=web/dist --scene=../shared/data/ycbv-0000/test/000000 --out=build/viewer
@@ -194,6 +195,20 @@ try {
   check(true, `the 3D view reloaded: ${await page.textContent('#lod')}`);
   await page.waitForTimeout(300);
   await page.screenshot({ path: join(args.out, 'viewer-live.png') });
+
+  // Level of detail: with a budget of 1000 voxels the viewer asks for coarser blocks.
+  const coarse = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  coarse.on('pageerror', (e) => errors.push(String(e)));
+  await coarse.goto(`${base}/?budget=1000#map=ycbv&tab=view3d`);
+  await coarse.waitForSelector('body[data-voxels-shown]', { timeout: 60000 });
+  const lod = await coarse.textContent('#lod');
+  const level = Number(lod.match(/level (\d+)/)[1]);
+  const coarseShown = Number(await coarse.getAttribute('body', 'data-voxels-shown'));
+  check(level >= 2 && coarseShown <= 2000 && coarseShown > 50, `with budget 1000: ${lod}`);
+  await coarse.waitForTimeout(300);
+  const coarsePixels = await coarse.evaluate(() => window.skimapViewer.drawnPixels());
+  check(coarsePixels.drawn > 0.02 * coarsePixels.total, `the coarse view drew ${coarsePixels.drawn} pixels`);
+  await coarse.screenshot({ path: join(args.out, 'viewer-lod.png') });
   check(errors.length === 0, `no page errors${errors.length ? `: ${errors.join('; ')}` : ''}`);
 } finally {
   if (browser) await browser.close();
