@@ -7,7 +7,8 @@ pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libeigen3-dev libopencv-dev libsqlite3-dev libzstd-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
-  clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql)
+  clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql
+  chromium)
 if [[ "${1:-}" == "--bench" ]]; then
   pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev)
 fi
@@ -23,7 +24,8 @@ if ((${#missing[@]})); then
 fi
 # postgresql: the PostgreSQL tests start throwaway servers of their own
 # (tests/common/postgres_server.h); the package's default cluster is not used.
-# Node.js for the third-party client test (tests/clients/node): Debian's unless a node is
+# chromium: the viewer's browser test (tests/web) drives Debian's chromium headless.
+# Node.js for the viewer (web/, built by scripts/build.sh) and the third-party client test (tests/clients/node): Debian's unless a node is
 # already installed; its npm packages exactly as the committed package-lock.json says.
 if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
   export DEBIAN_FRONTEND=noninteractive

@@ -66,8 +66,9 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   if (!grpc_server.ok()) return grpc_server.status();
   s->grpc_ = *std::move(grpc_server);
   if (!options.http.address.empty()) {
+    s->events_ = std::make_unique<MapEvents>(*s->maps_, options.events);
     absl::StatusOr<std::unique_ptr<HttpServer>> http =
-        HttpServer::Start(options.http, MakeRestRoutes(*s->maps_, *s->objects_));
+        HttpServer::Start(options.http, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
     if (!http.ok()) return http.status();
     s->http_ = *std::move(http);
   }
@@ -75,6 +76,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
 }
 
 void Server::Shutdown(absl::Duration grace) {
+  if (events_ != nullptr) events_->Stop();  // first: a stream holds an HTTP thread
   if (http_ != nullptr) http_->Stop();
   if (grpc_ != nullptr) grpc_->Shutdown(grace);
 }
@@ -82,6 +84,7 @@ void Server::Shutdown(absl::Duration grace) {
 Server::~Server() {
   Shutdown();
   http_.reset();
+  events_.reset();
   grpc_.reset();
   maps_.reset();  // drains the map workers and writes the last snapshots, under the leases
   objects_.reset();

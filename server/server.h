@@ -25,6 +25,7 @@
 #include "server/fleet/fleet.h"
 #include "server/grpc/grpc_server.h"
 #include "server/http/http_server.h"
+#include "server/http/map_events.h"
 #include "server/maps/map_service.h"
 #include "server/objects/object_service.h"
 #include "storage/map_store.h"
@@ -56,8 +57,10 @@ class Server {
     };
     FleetOptions fleet;
     GrpcServer::Options grpc;
-    // The REST adapter; http.address "" = none.
+    // The REST adapter; http.address "" = none. http.web_root: the viewer's files.
     HttpServer::Options http = {.address = ""};
+    // The viewer's live updates (GET /v1/maps/{map}/events).
+    MapEvents::Options events;
   };
 
   // Checks both listen addresses, joins the fleet, opens the store, builds the cores
@@ -77,7 +80,8 @@ class Server {
   // The fleet membership, or null on a single server.
   Fleet* fleet() { return fleet_.get(); }
 
-  // Stops both adapters: no new requests; open gRPC calls are cancelled after `grace`.
+  // Stops both adapters: no new requests; event streams end at once; open gRPC calls are
+  // cancelled after `grace`.
   void Shutdown(absl::Duration grace = absl::Seconds(2));
 
  private:
@@ -89,6 +93,7 @@ class Server {
   std::unique_ptr<ObjectService> objects_;    // outlives maps_: maps ask it for the classifier
   std::unique_ptr<MapService> maps_;
   std::unique_ptr<GrpcServer> grpc_;
+  std::unique_ptr<MapEvents> events_;  // outlives http_, whose routes use it
   std::unique_ptr<HttpServer> http_;
 };
 

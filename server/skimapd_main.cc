@@ -8,6 +8,7 @@
 //           [--max_streams_per_client=16]
 //           [--http_address=127.0.0.1:8080] [--http_max_body_mb=32]
 //           [--http_cors_origins=ORIGIN,...] [--http_threads=8]
+//           [--web_root=DIR] [--http_max_event_streams=4]
 //           [--store=postgresql://user@host:port/db [--advertise_address=HOST:PORT]
 //            [--lease_ttl_ms=6000]]
 //
@@ -48,6 +49,15 @@ ABSL_FLAG(std::string, http_cors_origins, "",
           "comma list of origins allowed to call the REST API from a browser "
           "(https://host:port), or * for any; empty: none");
 ABSL_FLAG(int, http_threads, 8, "REST requests served at once");
+// The default: the viewer built in the source tree (web/dist beside CMakeLists.txt), if it
+// was built; docs/viewer.md.
+ABSL_FLAG(std::string, web_root, "default",
+          "directory of the browser viewer's files (web/dist), served at / on --http_address; "
+          "empty: no viewer; \"default\": the source tree's web/dist (" SKIMAP_WEB_DIST
+          ") if it was built, else none");
+ABSL_FLAG(int, http_max_event_streams, 4,
+          "live-update streams (GET /v1/maps/{map}/events) open at once, each holding one of "
+          "--http_threads; more: 429");
 ABSL_FLAG(std::string, dataset_root, "",
           "directory under which TrainObjectFromDataset may read datasets; empty: off");
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
@@ -115,7 +125,7 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_max_map_voxels) < 0 || absl::GetFlag(FLAGS_max_frame_pixels) < 0 ||
       absl::GetFlag(FLAGS_max_streams_per_client) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100 ||
       absl::GetFlag(FLAGS_http_max_body_mb) < 1 || absl::GetFlag(FLAGS_http_max_body_mb) > 4096 ||
-      absl::GetFlag(FLAGS_http_threads) < 1) {
+      absl::GetFlag(FLAGS_http_threads) < 1 || absl::GetFlag(FLAGS_http_max_event_streams) < 0) {
     std::fprintf(stderr, "skimapd: flag out of range (see --help)\n");
     return 2;
   }
@@ -129,6 +139,15 @@ int main(int argc, char** argv) {
   options.http.insecure = absl::GetFlag(FLAGS_insecure);
   options.http.max_body_bytes = size_t(absl::GetFlag(FLAGS_http_max_body_mb)) << 20;
   options.http.threads = absl::GetFlag(FLAGS_http_threads);
+  options.http.web_root = absl::GetFlag(FLAGS_web_root);
+  if (options.http.web_root == "default") {
+    options.http.web_root.clear();
+    if (std::filesystem::is_regular_file(std::filesystem::path(SKIMAP_WEB_DIST) / "index.html",
+                                         ec)) {
+      options.http.web_root = SKIMAP_WEB_DIST;
+    }
+  }
+  options.events.max_clients = absl::GetFlag(FLAGS_http_max_event_streams);
   for (absl::string_view origin :
        absl::StrSplit(absl::GetFlag(FLAGS_http_cors_origins), ',', absl::SkipWhitespace())) {
     options.http.cors_origins.emplace_back(absl::StripAsciiWhitespace(origin));
@@ -165,6 +184,9 @@ int main(int argc, char** argv) {
   if ((*server)->http_port() != 0) {
     std::printf("skimapd: REST on http port %d (address %s)\n", (*server)->http_port(),
                 options.http.address.c_str());
+    std::printf("skimapd: viewer %s\n", options.http.web_root.empty()
+                                            ? "off (no --web_root; build web/ to get one)"
+                                            : ("at / from " + options.http.web_root).c_str());
   }
   std::fflush(stdout);
 

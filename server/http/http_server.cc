@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -88,6 +89,11 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
     return absl::InvalidArgumentError("HTTP threads and body limit must be >= 1");
   }
   std::unique_ptr<HttpServer> s(new HttpServer(options, std::move(routes)));
+  if (!options.web_root.empty()) {
+    absl::StatusOr<StaticFiles> files = StaticFiles::Open(options.web_root);
+    if (!files.ok()) return files.status();
+    s->files_ = *std::move(files);
+  }
   httplib::Server& http = *s->http_;
   const int threads = options.threads;
   http.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
@@ -178,10 +184,12 @@ void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& re
     }
     absl::StatusOr<RestReply> reply = routes_[i].handler(call);
     if (!reply.ok()) return WriteError(response, reply.status());
-    response.status = 200;
-    for (const auto& [name, value] : reply->headers) response.set_header(name, value);
-    response.set_content(std::move(reply->body), reply->content_type);
-    return;
+    return Answer(*std::move(reply), response);
+  }
+  if (allowed.empty() && files_ && method == "GET" && !absl::StartsWith(request.path, "/v1/")) {
+    absl::StatusOr<RestReply> file = files_->Get(request.path);
+    if (!file.ok()) return WriteError(response, file.status());
+    return Answer(*std::move(file), response);
   }
   if (allowed.empty()) {
     return WriteError(response, absl::NotFoundError(absl::StrCat("no route ", request.method, " ",
@@ -197,6 +205,23 @@ void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& re
                                                    Echo(request.path), "; it takes ",
                                                    absl::StrJoin(allowed, ", "))),
              405);
+}
+
+void HttpServer::Answer(RestReply reply, httplib::Response& response) {
+  response.status = 200;
+  for (const auto& [name, value] : reply.headers) response.set_header(name, value);
+  if (!reply.stream) {
+    response.set_content(std::move(reply.body), reply.content_type);
+    return;
+  }
+  response.set_chunked_content_provider(
+      reply.content_type, [stream = std::move(reply.stream)](size_t, httplib::DataSink& sink) {
+        stream([&sink](std::string_view piece) {
+          return sink.is_writable() && sink.write(piece.data(), piece.size());
+        });
+        sink.done();
+        return true;
+      });
 }
 
 bool HttpServer::OriginAllowed(const std::string& origin) const {

@@ -14,12 +14,18 @@
 // from such an origin answers 204 with the methods of the path; from another origin 403.
 // Requests without Origin (curl, servers) are not affected.
 //
+// The viewer: with `web_root`, a GET of a path no route has (outside /v1/) answers the
+// file from that directory (static_files.h: MIME types, caching, no path outside it).
+// A route may answer a stream (RestReply::stream, server-sent events): it is sent with
+// chunked transfer encoding on the request's thread.
+//
 // Thread safety: handlers run concurrently on the pool; Stop may be called from any
 // thread and is idempotent.
 #ifndef SERVER_HTTP_HTTP_SERVER_H_
 #define SERVER_HTTP_HTTP_SERVER_H_
 
 #include <memory>
+#include <optional>
 #include <regex>
 #include <string>
 #include <thread>
@@ -27,6 +33,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/http/rest_route.h"
+#include "server/http/static_files.h"
 
 // cpp-httplib stays out of this header: <httplib.h> includes <resolv.h>, whose `_res`
 // macro breaks headers included after it (Eigen's).
@@ -49,11 +56,14 @@ class HttpServer {
     // Origins allowed to call from a browser ("https://viewer.example:8443"), or "*" for
     // any; empty: none (same-origin pages only).
     std::vector<std::string> cors_origins;
+    // The viewer's files (web/dist); "" = none. Must hold index.html.
+    std::string web_root;
   };
 
   // Binds and starts serving `routes` on the pool. FailedPrecondition for an address
   // beyond loopback without `insecure`; InvalidArgument for a malformed address or
-  // options; Unavailable if the address cannot be bound.
+  // options; NotFound for a web_root without index.html; Unavailable if the address
+  // cannot be bound.
   static absl::StatusOr<std::unique_ptr<HttpServer>> Start(const Options& options,
                                                            std::vector<RestRoute> routes);
   ~HttpServer();  // Stop()
@@ -73,6 +83,7 @@ class HttpServer {
 
   HttpServer(const Options& options, std::vector<RestRoute> routes);
   void Dispatch(const httplib::Request& request, httplib::Response& response) const;
+  static void Answer(RestReply reply, httplib::Response& response);
   // CORS headers; true for a preflight, answered here.
   bool ApplyCors(const httplib::Request& request, httplib::Response& response) const;
   bool OriginAllowed(const std::string& origin) const;
@@ -82,6 +93,7 @@ class HttpServer {
   const Options options_;
   const std::vector<RestRoute> routes_;
   std::vector<CompiledRoute> compiled_;  // one per route
+  std::optional<StaticFiles> files_;     // with web_root
   std::unique_ptr<httplib::Server> http_;
   std::thread listener_;
   int port_ = 0;

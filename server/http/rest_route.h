@@ -17,6 +17,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -40,6 +41,10 @@ struct RestReply {
   std::string body;
   // Extra response headers (X-Skimap-Resolution, ...).
   std::vector<std::pair<std::string, std::string>> headers;
+  // A streamed body instead of `body` (server-sent events, event_streams.h): runs on the
+  // HTTP thread after the headers went out and writes pieces with `write`, which answers
+  // false once the client is gone; the response ends when it returns.
+  std::function<void(const std::function<bool(std::string_view)>& write)> stream;
 };
 
 using RestHandler = std::function<absl::StatusOr<RestReply>(const RestCall&)>;

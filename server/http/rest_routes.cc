@@ -156,7 +156,7 @@ absl::StatusOr<RestReply> HeightMap(const MapService& maps, const RestCall& call
 
 const char* OpenApiJson() { return kOpenApiJson; }
 
-std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) {
+std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events) {
   std::vector<RestRoute> routes;
   routes.push_back({"GET", "/healthz", [](const RestCall&) -> absl::StatusOr<RestReply> {
                       v1::HealthzResponse health;
@@ -189,6 +189,12 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects) 
   routes.push_back({"GET", "/v1/maps/{map}/voxels",
                     Unary<v1::GetVoxelsRequest, v1::GetVoxelsResponse>(
                         Body::kNone, kMap, [&maps](const auto& r) { return maps.GetVoxels(r); })});
+  routes.push_back(
+      {"GET", "/v1/maps/{map}/trajectory",
+       Unary<v1::GetTrajectoryRequest, v1::Trajectory>(
+           Body::kNone, kMap, [&maps](const auto& r) { return maps.GetTrajectory(r); })});
+  routes.push_back({"GET", "/v1/maps/{map}/events",
+                    [&events](const RestCall& call) { return events.Open(call); }});
   routes.push_back(
       {"POST", "/v1/maps/{map}:radiusSearch",
        Unary<v1::RadiusSearchRequest, v1::RadiusSearchResponse>(

@@ -11,7 +11,9 @@
 //   DELETE /v1/maps/{map}                    DeleteMap
 //   GET    /v1/maps/{map}/occupancyGrid      GetOccupancyGrid  ?region&bandMinZ&...&format
 //   GET    /v1/maps/{map}/heightMap          GetHeightMap      ?region&minVoxelWeight&format
-//   GET    /v1/maps/{map}/voxels             GetVoxels         ?box&pageSize&pageToken&...
+//   GET    /v1/maps/{map}/voxels             GetVoxels         ?box&pageSize&pageToken&level&...
+//   GET    /v1/maps/{map}/trajectory         GetTrajectory     ?maxPoses
+//   GET    /v1/maps/{map}/events             WatchMap          server-sent events (map_events.h)
 //   POST   /v1/maps/{map}:radiusSearch       RadiusSearch      body RadiusSearchRequest
 //   POST   /v1/maps/{map}/frames             IntegrateFrame    body Frame; reply FrameAck
 //   POST   /v1/maps/{map}:updatePoses        UpdatePoses       body UpdatePosesRequest
@@ -34,15 +36,16 @@
 
 #include <vector>
 
+#include "server/http/map_events.h"
 #include "server/http/rest_route.h"
 #include "server/maps/map_service.h"
 #include "server/objects/object_service.h"
 
 namespace skimap::server {
 
-// The route table over `maps` and `objects` (not owned; REQUIRES: both outlive every call
-// of the routes' handlers).
-std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects);
+// The route table over `maps`, `objects` and `events` (not owned; REQUIRES: all outlive
+// every call of the routes' handlers).
+std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events);
 
 // The OpenAPI 3 document served at /v1/openapi.json (server/http/openapi.json, compiled in).
 const char* OpenApiJson();

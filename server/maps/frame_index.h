@@ -46,6 +46,13 @@ class FrameIndex {
   size_t size() const { return entries_.size(); }
   bool Contains(uint64_t sequence) const { return entries_.contains(sequence); }
   const Entry* Find(uint64_t sequence) const;
+  // The frames' poses, by sequence.
+  std::vector<std::pair<uint64_t, perception::CameraPose>> Poses() const {
+    std::vector<std::pair<uint64_t, perception::CameraPose>> poses;
+    poses.reserve(entries_.size());
+    for (const auto& [sequence, entry] : entries_) poses.emplace_back(sequence, entry.pose);
+    return poses;
+  }
   // REQUIRES: !Contains(sequence) and entry.position above every earlier one.
   void Add(uint64_t sequence, Entry entry);
   // REQUIRES: Contains(sequence).

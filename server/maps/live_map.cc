@@ -303,6 +303,7 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
   if (options_.store == nullptr) index_.LimitKeptFrames(options_.max_kept_frame_bytes);
   kept_frame_bytes_.store(index_.kept_frame_bytes(), std::memory_order_relaxed);
   journal_bytes_.store(index_.journal_bytes(), std::memory_order_relaxed);
+  NotifyChangeWatchers();
   v1::FrameAck ack;
   ack.set_sequence(frame->sequence());
   ack.set_voxels_touched(written.voxels_touched);
@@ -441,6 +442,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
   const WriteStats total =
       ApplyStages(0, position, [&](MapState& state) { ApplyRecognitionMoves(state, position); });
   NotifyWatchers();
+  NotifyChangeWatchers();
   for (int i = 0; i < request.updates_size(); ++i) {
     index_.SetPose(request.updates(i).sequence(), poses[i]);
   }

@@ -170,21 +170,33 @@ class LiveMap {
   // `wake` no longer runs.
   uint64_t AddInstanceWatcher(std::function<void()> wake);
   void RemoveInstanceWatcher(uint64_t id);
+  // Map changes: `wake` runs (on the worker, under a mutex: it must only schedule work)
+  // after each write that changed the map (an integrated frame, a pose update) and when
+  // the map is deleted or evicted. Remove returns once `wake` no longer runs.
+  uint64_t AddChangeWatcher(std::function<void()> wake);
+  void RemoveChangeWatcher(uint64_t id);
 
   // Makes queued and future writes answer NotFound (the map left the registry); instance
   // watchers are woken to see it.
   void MarkDeleted() {
     deleted_.store(true, std::memory_order_release);
     NotifyWatchers();
+    NotifyChangeWatchers();
   }
   // Makes queued and future writes answer Unavailable (the map was evicted from memory: a
   // retry reaches its reloaded copy).
   void MarkEvicted(bool evicted = true) {
     evicted_.store(evicted, std::memory_order_release);
     NotifyWatchers();
+    NotifyChangeWatchers();
   }
   // OK, or the error writes get: NotFound after MarkDeleted, Unavailable after MarkEvicted.
   absl::Status Refused() const;
+  // The pose of every integrated frame, by sequence (as of the writes queued before the
+  // call; runs on the worker).
+  std::vector<std::pair<uint64_t, perception::CameraPose>> Trajectory() {
+    return queue_.Run([this] { return index_.Poses(); });
+  }
   // Returns once the writes queued before the call have run.
   void Drain() {
     queue_.Run([] {});
@@ -251,6 +263,7 @@ class LiveMap {
   // The Labels volume's grid: fixed when the map is made, so read without the lock.
   const Grid& labels_grid() const ABSL_NO_THREAD_SAFETY_ANALYSIS { return state_.labels.grid(); }
   void NotifyWatchers();
+  void NotifyChangeWatchers();
   std::string RetentionPolicy() const;
 
   const std::string id_;
@@ -287,8 +300,9 @@ class LiveMap {
   std::atomic<uint64_t> recognized_frames_{0};
   std::atomic<uint64_t> recognition_changes_{0};  // applied since the last capture
   std::mutex watchers_mu_;
-  std::map<uint64_t, std::function<void()>> watchers_;  // guarded by watchers_mu_
-  uint64_t next_watcher_ = 1;                           // guarded by watchers_mu_
+  std::map<uint64_t, std::function<void()>> watchers_;         // guarded by watchers_mu_
+  uint64_t next_watcher_ = 1;                                  // guarded by watchers_mu_
+  std::map<uint64_t, std::function<void()>> change_watchers_;  // guarded by watchers_mu_
 
   WorkQueue queue_;  // destroyed before the members above, draining tasks while they live
   // After queue_, so destroyed before it: its jobs use the worker. ~LiveMap drains the

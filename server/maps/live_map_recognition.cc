@@ -344,6 +344,23 @@ void LiveMap::RemoveInstanceWatcher(uint64_t id) {
   watchers_.erase(id);
 }
 
+uint64_t LiveMap::AddChangeWatcher(std::function<void()> wake) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  const uint64_t id = next_watcher_++;
+  change_watchers_[id] = std::move(wake);
+  return id;
+}
+
+void LiveMap::RemoveChangeWatcher(uint64_t id) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  change_watchers_.erase(id);
+}
+
+void LiveMap::NotifyChangeWatchers() {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  for (auto& [id, wake] : change_watchers_) wake();
+}
+
 void LiveMap::NotifyWatchers() {
   std::lock_guard<std::mutex> lock(watchers_mu_);
   for (auto& [id, wake] : watchers_) wake();

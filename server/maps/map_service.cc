@@ -188,6 +188,19 @@ absl::StatusOr<v1::Map> MapService::GetMap(const v1::GetMapRequest& request) con
   return Describe({.id = (*map)->id(), .config = (*map)->config(), .map = *map});
 }
 
+MapService::MapWatch::~MapWatch() {
+  if (watcher_ != 0) map_->RemoveChangeWatcher(watcher_);
+}
+
+absl::StatusOr<std::unique_ptr<MapService::MapWatch>> MapService::WatchMap(
+    const v1::GetMapRequest& request, std::function<void()> wake) const {
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.name(), "name");
+  if (!map.ok()) return map.status();
+  std::unique_ptr<MapWatch> watch(new MapWatch(*map));
+  watch->watcher_ = (*map)->AddChangeWatcher(std::move(wake));
+  return watch;
+}
+
 absl::StatusOr<v1::ListMapsResponse> MapService::ListMaps(
     const v1::ListMapsRequest& request) const {
   if (request.page_size() < 0 || request.page_size() > 1000) {

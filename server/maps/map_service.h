@@ -103,6 +103,9 @@ class MapService {
   absl::StatusOr<v1::GetVoxelsResponse> GetVoxels(const v1::GetVoxelsRequest& request) const;
   absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(
       const v1::RadiusSearchRequest& request) const;
+  // The camera trajectory (the viewer's): each frame's pose by sequence, thinned evenly to
+  // max_poses (the last frame kept). InvalidArgument for max_poses outside 0..100000.
+  absl::StatusOr<v1::Trajectory> GetTrajectory(const v1::GetTrajectoryRequest& request) const;
 
   // Export and import of whole maps (map_service_transfer.cc); FailedPrecondition without
   // a store. ExportMap snapshots the map and returns its export file, piece by piece
@@ -138,6 +141,25 @@ class MapService {
   };
   absl::StatusOr<std::unique_ptr<InstanceWatch>> WatchInstances(
       const v1::WatchInstancesRequest& request, std::function<void()> wake) const;
+
+  // WatchMap: a watch of one map's changes (the viewer's live updates). `wake` runs (on a
+  // map thread, under a mutex: it must only schedule work) after each write that changed
+  // map `request.name` (an integrated frame, a pose update) and once when it is deleted or
+  // unloaded, until the watch is destroyed. Errors: the map's lookup (NotFound, ...).
+  class MapWatch {
+   public:
+    ~MapWatch();
+    // True once the watched map was deleted or unloaded: no more wakes will come.
+    bool gone() const { return !map_->Refused().ok(); }
+
+   private:
+    friend class MapService;
+    explicit MapWatch(std::shared_ptr<LiveMap> map) : map_(std::move(map)) {}
+    std::shared_ptr<LiveMap> map_;
+    uint64_t watcher_ = 0;
+  };
+  absl::StatusOr<std::unique_ptr<MapWatch>> WatchMap(const v1::GetMapRequest& request,
+                                                     std::function<void()> wake) const;
 
  private:
   absl::Status CheckRecognition(const RecognitionConfig& config) const;

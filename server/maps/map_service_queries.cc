@@ -1,6 +1,8 @@
 // MapService: spatial queries, each answered from one snapshot of the map.
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <optional>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -111,7 +113,57 @@ uint32_t VoxelQueryFingerprint(const LiveMap& map, const v1::GetVoxelsRequest& r
   }
   e.U8(request.has_min_voxel_weight());
   e.F32(request.min_voxel_weight());
+  if (request.level() != 0) e.U8(uint8_t(request.level()));  // tokens of level 0 unchanged
   return QueryFingerprint(map.incarnation(), "GetVoxels", filters);
+}
+
+constexpr int kMaxVoxelLevel = 8;
+
+// GetVoxels with a level: the blocks of 2^level voxels a side holding voxels of `scan`
+// (clipped to the map's bounds), in block key order, from block `start` (packed block key)
+// on, at most `page` of them into `out`. Walks one x column of blocks at a time: a page
+// merges no more than the slabs it needs. Returns the packed key of the next block if the
+// page is full.
+std::optional<uint64_t> AddVoxelBlocks(const Volume& volume, const KeyBox& scan, int level,
+                                       std::optional<uint64_t> start, size_t page, float min_weight,
+                                       v1::GetVoxelsResponse* out) {
+  struct Block {
+    double red = 0, green = 0, blue = 0, weight = 0;
+  };
+  const Grid& grid = volume.grid();
+  const int32_t side = 1 << level;
+  const double edge = grid.resolution() * side;
+  const int32_t first = start ? UnpackKey(*start).x : scan.min.x >> level;
+  for (int32_t bx = std::max(first, scan.min.x >> level); bx <= (scan.max.x >> level); ++bx) {
+    KeyBox slab = scan;
+    slab.min.x = std::max(scan.min.x, bx * side);
+    slab.max.x = std::min(scan.max.x, bx * side + side - 1);
+    std::map<uint64_t, Block> blocks;  // packed block key -> sums
+    volume.ForEachInBox(slab, [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
+      if (v.Weight() < min_weight) return;
+      Block& b = blocks[PackKey({k.x >> level, k.y >> level, k.z >> level})];
+      const double w = std::max(v.Weight(), 1e-6f);
+      b.red += v.Red() * w;
+      b.green += v.Green() * w;
+      b.blue += v.Blue() * w;
+      b.weight += w;
+    });
+    for (const auto& [packed, b] : blocks) {
+      if (start && packed < *start) continue;
+      if (size_t(out->voxels_size()) == page) return packed;
+      const VoxelKey key = UnpackKey(packed);
+      v1::Voxel* voxel = out->add_voxels();
+      voxel->mutable_center()->set_x(grid.origin().x + (key.x + 0.5) * edge);
+      voxel->mutable_center()->set_y(grid.origin().y + (key.y + 0.5) * edge);
+      voxel->mutable_center()->set_z(grid.origin().z + (key.z + 0.5) * edge);
+      auto channel = [&](double sum) {
+        return uint32_t(std::clamp(std::lround(sum / b.weight), 0l, 255l));
+      };
+      voxel->set_rgb(channel(b.red) << 16 | channel(b.green) << 8 | channel(b.blue));
+      voxel->set_weight(float(b.weight));
+    }
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -189,6 +241,9 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
     return absl::InvalidArgumentError(absl::StrCat("page_size must be in 0..", kMaxVoxelPage));
   }
   const size_t page = request.page_size() == 0 ? kDefaultVoxelPage : request.page_size();
+  if (request.level() < 0 || request.level() > kMaxVoxelLevel) {
+    return absl::InvalidArgumentError(absl::StrCat("level must be in 0..", kMaxVoxelLevel));
+  }
   absl::StatusOr<float> min_weight =
       MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), (*map)->config());
   if (!min_weight.ok()) return min_weight.status();
@@ -212,6 +267,25 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
     if (!box.ok()) return box.status();
     const std::optional<KeyBox> bounds = volume.Bounds();
     if (!bounds || box->empty()) return absl::OkStatus();
+    if (request.level() > 0) {
+      KeyBox scan = *box;
+      scan.min = {std::max(scan.min.x, bounds->min.x), std::max(scan.min.y, bounds->min.y),
+                  std::max(scan.min.z, bounds->min.z)};
+      scan.max = {std::min(scan.max.x, bounds->max.x), std::min(scan.max.y, bounds->max.y),
+                  std::min(scan.max.z, bounds->max.z)};
+      out.set_resolution(grid.resolution() * (1 << request.level()));
+      if (scan.empty()) return absl::OkStatus();
+      std::optional<uint64_t> start;
+      if (!request.page_token().empty()) start = start_packed;
+      const std::optional<uint64_t> next =
+          AddVoxelBlocks(volume, scan, request.level(), start, page, *min_weight, &out);
+      if (next) {
+        std::string position;
+        Encoder(&position).U64(*next);
+        out.set_next_page_token(EncodePageToken(query, position));
+      }
+      return absl::OkStatus();
+    }
     const VoxelKey start = UnpackKey(start_packed);
     KeyBox scan = *box;
     scan.min.x =
@@ -241,6 +315,39 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
+  return out;
+}
+
+absl::StatusOr<v1::Trajectory> MapService::GetTrajectory(
+    const v1::GetTrajectoryRequest& request) const {
+  constexpr int kDefaultPoses = 10000, kMaxPoses = 100000;
+  if (request.max_poses() < 0 || request.max_poses() > kMaxPoses) {
+    return absl::InvalidArgumentError(absl::StrCat("max_poses must be in 0..", kMaxPoses));
+  }
+  absl::StatusOr<std::shared_ptr<LiveMap>> map = FindMap(request.map(), "map");
+  if (!map.ok()) return map.status();
+  const size_t max = request.max_poses() == 0 ? kDefaultPoses : request.max_poses();
+  const std::vector<std::pair<uint64_t, perception::CameraPose>> poses = (*map)->Trajectory();
+  v1::Trajectory out;
+  out.set_frames(poses.size());
+  const size_t n = poses.size();
+  const size_t kept = std::min(n, max);
+  for (size_t k = 0; k < kept; ++k) {
+    // Evenly spread indices, the first and the last included.
+    const size_t i = kept == n ? k : (kept == 1 ? n - 1 : k * (n - 1) / (kept - 1));
+    const auto& [sequence, pose] = poses[i];
+    v1::TrajectoryPose* p = out.add_poses();
+    p->set_sequence(sequence);
+    v1::Quaternion* q = p->mutable_pose()->mutable_rotation();
+    q->set_w(pose.rotation.w());
+    q->set_x(pose.rotation.x());
+    q->set_y(pose.rotation.y());
+    q->set_z(pose.rotation.z());
+    v1::Vec3* t = p->mutable_pose()->mutable_translation();
+    t->set_x(pose.translation.x());
+    t->set_y(pose.translation.y());
+    t->set_z(pose.translation.z());
+  }
   return out;
 }
 

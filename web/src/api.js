@@ -1,0 +1,74 @@
+// The REST API of skimapd (docs/api.md), as the viewer uses it. Same origin: the viewer is
+// served by the skimapd it shows.
+
+async function getJson(path) {
+  const response = await fetch(path, { headers: { Accept: 'application/json' } });
+  const body = await response.json().catch(() => ({}));
+  if (!response.ok) {
+    const error = new Error(body.message || `${response.status} ${response.statusText}`);
+    error.status = response.status;
+    throw error;
+  }
+  return body;
+}
+
+export const mapId = (name) => name.replace(/^maps\//, '');
+
+export async function listMaps() {
+  const maps = [];
+  let token = '';
+  do {
+    const page = await getJson(`/v1/maps?pageSize=1000${token ? `&pageToken=${encodeURIComponent(token)}` : ''}`);
+    maps.push(...(page.maps || []));
+    token = page.nextPageToken || '';
+  } while (token);
+  return maps;
+}
+
+export const getMap = (id) => getJson(`/v1/maps/${id}`);
+
+// Voxels at `level` (0 = full resolution), page after page, stopping at `cap` voxels.
+export async function getVoxels(id, level, cap, onPage) {
+  let token = '';
+  let count = 0;
+  let resolution = 0;
+  do {
+    const query = `level=${level}&pageSize=100000${token ? `&pageToken=${encodeURIComponent(token)}` : ''}`;
+    const page = await getJson(`/v1/maps/${id}/voxels?${query}`);
+    resolution = page.resolution;
+    const voxels = page.voxels || [];
+    count += voxels.length;
+    onPage(voxels, resolution);
+    token = page.nextPageToken || '';
+  } while (token && count < cap);
+  return { count, resolution, truncated: Boolean(token) };
+}
+
+export const getTrajectory = (id, maxPoses) => getJson(`/v1/maps/${id}/trajectory?maxPoses=${maxPoses}`);
+
+export function getOccupancyGrid(id, band) {
+  const q = band ? `?bandMinZ=${band.min}&bandMaxZ=${band.max}` : '';
+  return getJson(`/v1/maps/${id}/occupancyGrid${q}`);
+}
+
+export const getHeightMap = (id) => getJson(`/v1/maps/${id}/heightMap`);
+
+// Instances of a map with recognition; null when the map has none (FAILED_PRECONDITION).
+export async function listInstances(id) {
+  try {
+    return (await getJson(`/v1/maps/${id}/instances?pageSize=1000`)).instances || [];
+  } catch (error) {
+    if (error.status === 409 || error.status === 400) return null;
+    throw error;
+  }
+}
+
+// Live updates: calls onMap(map) for each `event: map`; returns the EventSource.
+export function watchMap(id, onMap, onState) {
+  const source = new EventSource(`/v1/maps/${id}/events`);
+  source.addEventListener('map', (event) => onMap(JSON.parse(event.data)));
+  source.addEventListener('gone', () => onState(false));
+  source.onopen = () => onState(true);
+  source.onerror = () => onState(false);
+  return source;
+}

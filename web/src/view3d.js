@@ -1,0 +1,250 @@
+// The 3D tab: the map's RGB volume as instanced boxes (one THREE.InstancedMesh, one box per
+// voxel, coloured by the voxel), an orbit camera, the instances found by recognition as
+// oriented boxes with their names and scores. World frame: z up, metres.
+//
+// Level of detail (docs/viewer.md): the viewer draws at most `budget` voxels. It asks the
+// server for the smallest level L (GetVoxels ?level=L: one voxel per block of 2^L voxels a
+// side) with stats.voxels / 4^L <= budget (a surface keeps about a quarter of its voxels
+// per level), and stops paging at 2 x budget whatever the level gave.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { getTrajectory, getVoxels, listInstances } from './api.js';
+
+export const DEFAULT_BUDGET = 200000;
+const BACKGROUND = 0x15171a;
+
+export function chooseLevel(voxels, budget) {
+  let level = 0;
+  while (level < 8 && voxels / 4 ** level > budget) level++;
+  return level;
+}
+
+export class View3D {
+  constructor(container, budget = DEFAULT_BUDGET) {
+    this.container = container;
+    this.budget = budget;
+    this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(window.devicePixelRatio);
+    this.renderer.setClearColor(BACKGROUND);
+    container.appendChild(this.renderer.domElement);
+    this.scene = new THREE.Scene();
+    this.scene.add(new THREE.AmbientLight(0xffffff, 0.75));
+    const sun = new THREE.DirectionalLight(0xffffff, 0.9);
+    sun.position.set(1, -2, 3);
+    this.scene.add(sun);
+    this.camera = new THREE.PerspectiveCamera(55, 1, 0.01, 500);
+    this.camera.up.set(0, 0, 1);
+    this.camera.position.set(2, -2, 2);
+    this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+    this.controls.enableDamping = true;
+    this.controls.addEventListener('change', () => this.requestRender());
+    this.axes = new THREE.AxesHelper(0.3);
+    this.scene.add(this.axes);
+    this.voxels = null;
+    this.instances = new THREE.Group();
+    this.scene.add(this.instances);
+    this.trajectory = new THREE.Group();
+    this.scene.add(this.trajectory);
+    this.framed = null;  // the map whose bounds the camera was fitted to
+    this.loading = null;
+    new ResizeObserver(() => this.resize()).observe(container);
+    this.resize();
+  }
+
+  resize() {
+    const { clientWidth: w, clientHeight: h } = this.container;
+    if (!w || !h) return;
+    this.renderer.setSize(w, h);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+    this.requestRender();
+  }
+
+  requestRender() {
+    if (this.pending) return;
+    this.pending = requestAnimationFrame(() => {
+      this.pending = 0;
+      if (this.controls.update()) this.requestRender();
+      this.renderer.render(this.scene, this.camera);
+    });
+  }
+
+  // Fits the camera to the map's bounds once per map.
+  frame(map) {
+    const b = map.stats && map.stats.bounds;
+    if (!b || this.framed === map.name) return;
+    this.framed = map.name;
+    const box = new THREE.Box3(new THREE.Vector3(b.min.x, b.min.y, b.min.z),
+                               new THREE.Vector3(b.max.x, b.max.y, b.max.z));
+    if (this.trajectoryBox) box.union(this.trajectoryBox);  // the cameras in view too
+    const { min, max } = box;
+    const centre = min.clone().add(max).multiplyScalar(0.5);
+    const size = Math.max(max.distanceTo(min), 0.5);
+    this.controls.target.copy(centre);
+    this.camera.position.copy(centre).add(new THREE.Vector3(0.35, -0.55, 0.45).multiplyScalar(size));
+    this.camera.near = size / 1000;
+    this.camera.far = size * 20;
+    this.camera.updateProjectionMatrix();
+    this.controls.update();
+  }
+
+  // (Re)loads the voxels of `map` (a v1.Map); reports the level of detail with onLod.
+  async load(map, onLod) {
+    const id = map.name.replace(/^maps\//, '');
+    const voxels = Number(map.stats.voxels || 0);
+    const level = chooseLevel(voxels, this.budget);
+    const token = {};
+    this.loading = token;
+    const cap = 2 * this.budget;
+    const positions = [];
+    const colours = [];
+    const result = await getVoxels(id, level, cap, (page) => {
+      for (const v of page) {
+        positions.push(v.center.x || 0, v.center.y || 0, v.center.z || 0);
+        colours.push(v.rgb || 0);
+      }
+    });
+    if (this.loading !== token) return null;  // a newer load started
+    this.show(positions, colours, result.resolution);
+    this.frame(map);
+    const lod = { level, shown: positions.length / 3, total: voxels, truncated: result.truncated,
+                  resolution: result.resolution };
+    if (onLod) onLod(lod);
+    this.requestRender();
+    return lod;
+  }
+
+  show(positions, colours, resolution) {
+    if (this.voxels) {
+      this.scene.remove(this.voxels);
+      this.voxels.geometry.dispose();
+      this.voxels.material.dispose();
+      this.voxels.dispose();
+    }
+    const n = colours.length;
+    const geometry = new THREE.BoxGeometry(resolution, resolution, resolution);
+    const material = new THREE.MeshLambertMaterial();
+    const mesh = new THREE.InstancedMesh(geometry, material, Math.max(n, 1));
+    mesh.count = n;
+    const m = new THREE.Matrix4();
+    const c = new THREE.Color();
+    for (let i = 0; i < n; i++) {
+      m.makeTranslation(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
+      mesh.setMatrixAt(i, m);
+      const rgb = colours[i];
+      c.setRGB(((rgb >> 16) & 255) / 255, ((rgb >> 8) & 255) / 255, (rgb & 255) / 255,
+               THREE.SRGBColorSpace);
+      mesh.setColorAt(i, c);
+    }
+    mesh.instanceMatrix.needsUpdate = true;
+    if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
+    mesh.computeBoundingSphere();
+    this.voxels = mesh;
+    this.scene.add(mesh);
+  }
+
+  // Instances as oriented boxes (the object's extent from its model voxels when known,
+  // else 10 cm) with a "name score" label. Returns the instances, or null without
+  // recognition.
+  async loadInstances(map, extentOf, list) {
+    const id = map.name.replace(/^maps\//, '');
+    const instances = await listInstances(id);
+    this.instances.clear();
+    list.replaceChildren();
+    if (!instances) return null;
+    for (const inst of instances) {
+      const extent = (await extentOf(inst.object)) || { min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05] };
+      const size = extent.max.map((v, i) => v - extent.min[i]);
+      const box = new THREE.LineSegments(
+        new THREE.EdgesGeometry(new THREE.BoxGeometry(...size)),
+        new THREE.LineBasicMaterial({ color: 0xffcc33 }));
+      box.position.set(...extent.max.map((v, i) => (v + extent.min[i]) / 2));
+      const holder = new THREE.Group();
+      const p = inst.pose || {};
+      const t = p.translation || {};
+      const r = p.rotation || { w: 1 };
+      holder.position.set(t.x || 0, t.y || 0, t.z || 0);
+      holder.quaternion.set(r.x || 0, r.y || 0, r.z || 0, r.w ?? 1);
+      holder.add(box);
+      holder.add(label(`${inst.objectName || inst.object} ${Number(inst.score).toFixed(0)}`));
+      this.instances.add(holder);
+      const item = document.createElement('li');
+      item.textContent = `${inst.objectName || inst.object}: score ${Number(inst.score).toFixed(0)}, fit ${Number(inst.fit || 0).toFixed(2)}`;
+      list.appendChild(item);
+    }
+    this.requestRender();
+    return instances;
+  }
+
+  // The camera trajectory (GET /v1/maps/{map}/trajectory): a line through the camera
+  // positions, a dot per frame, the last camera's axes. Returns the number of poses.
+  async loadTrajectory(map) {
+    const id = map.name.replace(/^maps\//, '');
+    const trajectory = await getTrajectory(id, 5000);
+    for (const child of [...this.trajectory.children]) {
+      child.geometry?.dispose();
+      this.trajectory.remove(child);
+    }
+    const poses = trajectory.poses || [];
+    if (!poses.length) return 0;
+    const points = poses.map(({ pose }) => new THREE.Vector3(
+      pose.translation?.x || 0, pose.translation?.y || 0, pose.translation?.z || 0));
+    const geometry = new THREE.BufferGeometry().setFromPoints(points);
+    this.trajectory.add(new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: 0x33ddff })));
+    this.trajectory.add(new THREE.Points(geometry.clone(), new THREE.PointsMaterial({ color: 0x33ddff, size: 5, sizeAttenuation: false })));
+    this.trajectoryBox = new THREE.Box3().setFromPoints(points);
+    // The last camera as a small frustum (camera frame: x right, y down, z forward).
+    const last = poses[poses.length - 1].pose;
+    const [w, h, d] = [0.04, 0.03, 0.06];
+    const corners = [[-w, -h, d], [w, -h, d], [w, h, d], [-w, h, d]];
+    const segments = [];
+    corners.forEach((c, i) => segments.push(0, 0, 0, ...c, ...c, ...corners[(i + 1) % 4]));
+    const frustum = new THREE.LineSegments(
+      new THREE.BufferGeometry().setAttribute('position', new THREE.Float32BufferAttribute(segments, 3)),
+      new THREE.LineBasicMaterial({ color: 0x33ddff }));
+    frustum.position.copy(points[points.length - 1]);
+    const r = last.rotation || {};
+    frustum.quaternion.set(r.x || 0, r.y || 0, r.z || 0, r.w ?? 1);
+    this.trajectory.add(frustum);
+    this.requestRender();
+    return poses.length;
+  }
+
+  // Pixels of the view that differ from the empty scene's (for tests and the status).
+  drawnPixels() {
+    const read = () => {
+      this.renderer.render(this.scene, this.camera);
+      const gl = this.renderer.getContext();
+      const pixels = new Uint8Array(gl.drawingBufferWidth * gl.drawingBufferHeight * 4);
+      gl.readPixels(0, 0, gl.drawingBufferWidth, gl.drawingBufferHeight, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
+      return pixels;
+    };
+    const shown = this.scene.children.map((c) => c.visible);
+    this.scene.children.forEach((c) => { c.visible = c.isLight === true; });
+    const empty = read();
+    this.scene.children.forEach((c, i) => { c.visible = shown[i]; });
+    const full = read();
+    let drawn = 0;
+    for (let i = 0; i < full.length; i += 4) {
+      if (Math.abs(full[i] - empty[i]) + Math.abs(full[i + 1] - empty[i + 1]) + Math.abs(full[i + 2] - empty[i + 2]) > 12) drawn++;
+    }
+    return { drawn, total: full.length / 4 };
+  }
+}
+
+function label(text) {
+  const canvas = document.createElement('canvas');
+  const ctx = canvas.getContext('2d');
+  ctx.font = '28px sans-serif';
+  canvas.width = Math.ceil(ctx.measureText(text).width) + 12;
+  canvas.height = 40;
+  ctx.font = '28px sans-serif';
+  ctx.fillStyle = 'rgba(0,0,0,0.6)';
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  ctx.fillStyle = '#ffcc33';
+  ctx.fillText(text, 6, 29);
+  const sprite = new THREE.Sprite(new THREE.SpriteMaterial({ map: new THREE.CanvasTexture(canvas), depthTest: false }));
+  sprite.scale.set(0.004 * canvas.width, 0.004 * canvas.height, 1);
+  sprite.position.set(0, 0, 0.12);
+  return sprite;
+}

@@ -1,0 +1,220 @@
+// Browser test of the viewer (ctest: Viewer.BrowserShowsMapGridAndLiveUpdates): starts a
+// real skimapd serving web/dist with a fresh data dir, streams nine ycbv-0000 frames into
+// map "ycbv" over REST (POST /v1/maps/ycbv/frames), opens the viewer in Debian's headless
+// chromium (playwright-core) and checks that
+//   - the map list shows the map with its voxel count (as GET /v1/maps/ycbv says),
+//   - the 3D canvas drew non-background pixels, and the trajectory has a pose per frame,
+//   - the grid tab drew the grid and shows metric coordinates under the mouse,
+//   - posting the tenth frame updates the shown stats live, without a reload.
+// and that a small voxel budget (?budget=1000) makes it ask for coarser levels.
+// Screenshots go to --out (viewer-3d.png, viewer-grid.png, viewer-height.png,
+// viewer-live.png, viewer-lod.png).
+//
+//   node web/test/viewer_test.mjs --skimapd=build/release/server/skimapd \
+//     --web_root=web/dist --scene=../shared/data/ycbv-0000/test/000000 --out=build/viewer
+import { spawn } from 'node:child_process';
+import { mkdtempSync, mkdirSync, readFileSync, rmSync, existsSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { chromium } from 'playwright-core';
+
+const args = Object.fromEntries(process.argv.slice(2).map((a) => a.replace(/^--/, '').split(/=(.*)/s).slice(0, 2)));
+for (const required of ['skimapd', 'web_root', 'scene', 'out']) {
+  if (!args[required]) throw new Error(`--${required}= is required`);
+}
+const CHROMIUM = args.chromium || process.env.CHROMIUM || '/usr/bin/chromium';
+mkdirSync(args.out, { recursive: true });
+
+let failures = 0;
+function check(condition, what) {
+  console.log(`${condition ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!condition) failures++;
+}
+
+// --- the frames of a BOP scene as v1.Frame JSON --------------------------------------
+
+function quaternion(m) {  // row-major 3x3 -> {w, x, y, z}
+  const [a, b, c, d, e, f, g, h, i] = m;
+  const trace = a + e + i;
+  let w, x, y, z;
+  if (trace > 0) {
+    const s = 0.5 / Math.sqrt(trace + 1);
+    w = 0.25 / s; x = (h - f) * s; y = (c - g) * s; z = (d - b) * s;
+  } else if (a > e && a > i) {
+    const s = 2 * Math.sqrt(1 + a - e - i);
+    w = (h - f) / s; x = 0.25 * s; y = (b + d) / s; z = (c + g) / s;
+  } else if (e > i) {
+    const s = 2 * Math.sqrt(1 + e - a - i);
+    w = (c - g) / s; x = (b + d) / s; y = 0.25 * s; z = (f + h) / s;
+  } else {
+    const s = 2 * Math.sqrt(1 + i - a - e);
+    w = (d - b) / s; x = (c + g) / s; y = (f + h) / s; z = 0.25 * s;
+  }
+  const n = Math.hypot(w, x, y, z);
+  return { w: w / n, x: x / n, y: y / n, z: z / n };
+}
+
+function sceneFrames(scene) {
+  const cameras = JSON.parse(readFileSync(join(scene, 'scene_camera.json'), 'utf8'));
+  return Object.keys(cameras).map(Number).sort((p, q) => p - q).map((id) => {
+    const cam = cameras[id];
+    const R = cam.cam_R_w2c;
+    const t = cam.cam_t_w2c.map((v) => v / 1000);  // mm -> m
+    const Rt = [R[0], R[3], R[6], R[1], R[4], R[7], R[2], R[5], R[8]];  // world <- camera
+    const T = [0, 1, 2].map((r) => -(Rt[3 * r] * t[0] + Rt[3 * r + 1] * t[1] + Rt[3 * r + 2] * t[2]));
+    const name = String(id).padStart(6, '0');
+    const K = cam.cam_K;
+    return {
+      map: 'maps/ycbv',
+      sequence: String(id),
+      pose: { rotation: quaternion(Rt), translation: { x: T[0], y: T[1], z: T[2] } },
+      intrinsics: { fx: K[0], fy: K[4], cx: K[2], cy: K[5], width: 640, height: 480 },
+      depthEncoding: 'DEPTH_ENCODING_PNG16',
+      depth: readFileSync(join(scene, 'depth', `${name}.png`)).toString('base64'),
+      depthScale: cam.depth_scale / 1000,
+      colorEncoding: 'COLOR_ENCODING_PNG',
+      color: readFileSync(join(scene, 'rgb', `${name}.png`)).toString('base64'),
+    };
+  });
+}
+
+// --- skimapd -----------------------------------------------------------------------
+
+function startServer(dataDir) {
+  const server = spawn(args.skimapd, ['--address=127.0.0.1:0', '--http_address=127.0.0.1:0',
+    `--data_dir=${dataDir}`, `--web_root=${args.web_root}`], { stdio: ['ignore', 'pipe', 'inherit'] });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    const timer = setTimeout(() => reject(new Error(`skimapd did not start: ${out}`)), 60000);
+    server.stdout.on('data', (chunk) => {
+      out += chunk;
+      const m = out.match(/REST on http port (\d+)/);
+      if (m) {
+        clearTimeout(timer);
+        resolve({ server, base: `http://127.0.0.1:${m[1]}` });
+      }
+    });
+    server.on('exit', (code) => reject(new Error(`skimapd exited with ${code}: ${out}`)));
+  });
+}
+
+async function call(base, method, path, body) {
+  const response = await fetch(base + path, {
+    method, headers: { 'Content-Type': 'application/json' }, body: body && JSON.stringify(body),
+  });
+  const json = await response.json();
+  if (!response.ok) throw new Error(`${method} ${path}: ${response.status} ${JSON.stringify(json)}`);
+  return json;
+}
+
+// --- the test ----------------------------------------------------------------------
+
+const dataDir = mkdtempSync(join(tmpdir(), 'skimap_viewer_'));
+const { server, base } = await startServer(dataDir);
+let browser;
+try {
+  await call(base, 'POST', '/v1/maps', { mapId: 'ycbv', options: { resolution: 0.01 } });
+  const frames = sceneFrames(args.scene);
+  check(frames.length >= 2, `the scene has ${frames.length} frames`);
+  for (const frame of frames.slice(0, -1)) {
+    const ack = await call(base, 'POST', '/v1/maps/ycbv/frames', frame);
+    if (ack.code) throw new Error(`frame ${frame.sequence}: ${ack.message}`);
+  }
+  const before = await call(base, 'GET', '/v1/maps/ycbv');
+  console.log(`map ycbv: ${before.stats.voxels} voxels, ${before.stats.frames} frames`);
+
+  browser = await chromium.launch({
+    executablePath: CHROMIUM, headless: true,
+    args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+  });
+  const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  await page.goto(`${base}/`);
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30000 });
+
+  // The map list.
+  const row = page.locator('tr[data-map="ycbv"]');
+  await row.waitFor({ timeout: 10000 });
+  check(await row.getAttribute('data-voxels') === before.stats.voxels,
+        `the list shows ${await row.getAttribute('data-voxels')} voxels (server: ${before.stats.voxels})`);
+  const shownCount = Number(before.stats.voxels).toLocaleString('en-US');
+  check((await row.locator('td').nth(1).textContent()) === shownCount, `the voxel cell reads ${shownCount}`);
+
+  // The 3D tab.
+  await page.waitForSelector('body[data-voxels-shown]', { timeout: 60000 });
+  const shown = Number(await page.getAttribute('body', 'data-voxels-shown'));
+  check(shown > 1000, `the 3D view holds ${shown} voxels (${await page.textContent('#lod')})`);
+  await page.waitForSelector('body[data-trajectory]', { timeout: 30000 });
+  check(Number(await page.getAttribute('body', 'data-trajectory')) === Number(before.stats.frames),
+        `the trajectory has ${await page.getAttribute('body', 'data-trajectory')} poses`);
+  await page.waitForTimeout(500);
+  const pixels = await page.evaluate(() => window.skimapViewer.drawnPixels());
+  check(pixels.drawn > 0.02 * pixels.total && pixels.drawn < 0.9 * pixels.total, `the 3D canvas drew ${pixels.drawn} of ${pixels.total} pixels`);
+  await page.screenshot({ path: join(args.out, 'viewer-3d.png') });
+
+  // The grid tab.
+  await page.click('#tabs button[data-tab="grid"]');
+  await page.waitForSelector('body[data-grid-known]', { timeout: 30000 });
+  const known = Number(await page.getAttribute('body', 'data-grid-known'));
+  check(known > 100, `the grid has ${known} known cells`);
+  const painted = await page.evaluate(() => {
+    const c = document.getElementById('grid-canvas');
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let n = 0;
+    for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++;
+    return { n, w: c.width, h: c.height };
+  });
+  check(painted.n === painted.w * painted.h && painted.w > 10, `the grid canvas is ${painted.w} x ${painted.h}, painted`);
+  const box = await page.locator('#grid-canvas').boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  const coords = await page.textContent('#coords');
+  check(/^x = -?\d+\.\d{3} m, y = -?\d+\.\d{3} m/.test(coords), `coordinates under the mouse: "${coords}"`);
+  await page.screenshot({ path: join(args.out, 'viewer-grid.png') });
+
+  // The height map tab.
+  await page.click('#tabs button[data-tab="height"]');
+  await page.waitForSelector('body[data-height-drawn]', { timeout: 30000 });
+  await page.screenshot({ path: join(args.out, 'viewer-height.png') });
+
+  // Live: the last frame, posted now, reaches the page without a reload.
+  await page.click('#tabs button[data-tab="view3d"]');
+  await page.evaluate(() => { window.notReloaded = true; });
+  check(await page.textContent('#live') === 'live', 'the live indicator is on');
+  const last = frames[frames.length - 1];
+  await call(base, 'POST', '/v1/maps/ycbv/frames', last);
+  const after = await call(base, 'GET', '/v1/maps/ycbv');
+  await page.waitForSelector(`tr[data-map="ycbv"][data-frames="${after.stats.frames}"]`, { timeout: 15000 });
+  check(await row.getAttribute('data-voxels') === after.stats.voxels,
+        `after the live frame the list shows ${after.stats.voxels} voxels, ${after.stats.frames} frames`);
+  check(await page.evaluate(() => window.notReloaded === true), 'the page was not reloaded');
+  await page.waitForFunction((n) => Number(document.body.dataset.voxelsShown) > 0 &&
+    document.getElementById('lod').textContent.includes(`of ${Number(n).toLocaleString('en-US')} voxels`),
+    after.stats.voxels, { timeout: 30000 });
+  check(true, `the 3D view reloaded: ${await page.textContent('#lod')}`);
+  await page.waitForTimeout(300);
+  await page.screenshot({ path: join(args.out, 'viewer-live.png') });
+
+  // Level of detail: with a budget of 1000 voxels the viewer asks for coarser blocks.
+  const coarse = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  coarse.on('pageerror', (e) => errors.push(String(e)));
+  await coarse.goto(`${base}/?budget=1000#map=ycbv&tab=view3d`);
+  await coarse.waitForSelector('body[data-voxels-shown]', { timeout: 60000 });
+  const lod = await coarse.textContent('#lod');
+  const level = Number(lod.match(/level (\d+)/)[1]);
+  const coarseShown = Number(await coarse.getAttribute('body', 'data-voxels-shown'));
+  check(level >= 2 && coarseShown <= 2000 && coarseShown > 50, `with budget 1000: ${lod}`);
+  await coarse.waitForTimeout(300);
+  const coarsePixels = await coarse.evaluate(() => window.skimapViewer.drawnPixels());
+  check(coarsePixels.drawn > 0.02 * coarsePixels.total, `the coarse view drew ${coarsePixels.drawn} pixels`);
+  await coarse.screenshot({ path: join(args.out, 'viewer-lod.png') });
+  check(errors.length === 0, `no page errors${errors.length ? `: ${errors.join('; ')}` : ''}`);
+} finally {
+  if (browser) await browser.close();
+  server.kill('SIGTERM');
+  await new Promise((resolve) => server.once('exit', resolve));
+  rmSync(dataDir, { recursive: true, force: true });
+}
+console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+process.exit(failures ? 1 : 0);
