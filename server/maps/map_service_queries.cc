@@ -156,8 +156,9 @@ std::optional<uint64_t> AddVoxelBlocks(const Volume& volume, const KeyBox& scan,
       voxel->mutable_center()->set_x(grid.origin().x + (key.x + 0.5) * edge);
       voxel->mutable_center()->set_y(grid.origin().y + (key.y + 0.5) * edge);
       voxel->mutable_center()->set_z(grid.origin().z + (key.z + 0.5) * edge);
-      auto channel = [&](double sum) {
-        return uint32_t(std::clamp(std::lround(sum / b.weight), 0l, 255l));
+      const double weight = b.weight;  // lambdas cannot capture bindings (clang 14)
+      auto channel = [weight](double sum) {
+        return uint32_t(std::clamp(std::lround(sum / weight), 0l, 255l));
       };
       voxel->set_rgb(channel(b.red) << 16 | channel(b.green) << 8 | channel(b.blue));
       voxel->set_weight(float(b.weight));
