@@ -209,6 +209,17 @@ absl::StatusOr<RandomForest> RandomForest::Deserialize(std::string_view bytes) {
       return absl::InvalidArgumentError("forest blob: leaf fraction outside [0, 1]");
     }
   }
+  // A leaf's fractions share one unit (a class listed twice would predict above 1).
+  for (uint64_t i = 0; i < nodes; ++i) {
+    const Node& n = f.nodes_[i];
+    if (n.feature != -1) continue;
+    double sum = 0;
+    for (uint64_t k = n.a; k < uint64_t{n.a} + n.b; ++k) sum += f.leaves_[k].fraction;
+    if (sum > 1.0001) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("forest blob: leaf ", i, " fractions sum to ", sum, " > 1"));
+    }
+  }
   return f;
 }
 
