@@ -1,6 +1,7 @@
 // RandomForest prediction, memory accounting and serialization.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "perception/objects/random_forest.h"
@@ -168,6 +169,10 @@ absl::StatusOr<RandomForest> RandomForest::Deserialize(std::string_view bytes) {
   if (version != kForestVersion) {
     return absl::InvalidArgumentError(
         absl::StrCat("forest blob: version ", version, " unsupported (want ", kForestVersion, ")"));
+  }
+  if (dims > uint32_t{std::numeric_limits<int32_t>::max()} ||
+      classes > uint32_t{std::numeric_limits<int32_t>::max()}) {
+    return absl::InvalidArgumentError("forest blob: dims or classes above 2^31 - 1");
   }
   // Each count must fit the bytes on its own before the sizes are added: a count near 2^60
   // would otherwise wrap the sum back to the real size and allocate that many nodes.
