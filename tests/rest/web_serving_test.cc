@@ -28,6 +28,15 @@ void WriteFile(const fs::path& path, const std::string& text) {
 }
 
 // A server with the REST adapter serving `web_root`.
+// Creates map "live" over REST.
+void CreateLiveMap(httplib::Client& http) {
+  v1::CreateMapRequest create;
+  create.set_map_id("live");
+  httplib::Result r = http.Post("/v1/maps", ToJsonBody(create), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+}
+
 std::unique_ptr<server::Server> StartServer(const std::string& web_root, int max_streams = 4) {
   server::Server::Options options;
   options.grpc.address = "127.0.0.1:0";
@@ -223,9 +232,7 @@ TEST(MapEventsTest, StreamSendsTheMapThenAnEventPerFrame) {
   std::unique_ptr<server::Server> server = StartServer("");
   ASSERT_NE(server, nullptr);
   httplib::Client http("127.0.0.1", server->http_port());
-  v1::CreateMapRequest create;
-  create.set_map_id("live");
-  ASSERT_EQ(http.Post("/v1/maps", ToJsonBody(create), "application/json")->status, 200);
+  ASSERT_NO_FATAL_FAILURE(CreateLiveMap(http));
 
   EventReader events(server->http_port(), "/v1/maps/live/events");
   ASSERT_TRUE(events.WaitFor("event: map\n", 1)) << events.text();
@@ -244,9 +251,7 @@ TEST(MapEventsTest, UnknownMapIs404AndStreamsAreBounded) {
   ASSERT_NE(server, nullptr);
   httplib::Client http("127.0.0.1", server->http_port());
   EXPECT_EQ(http.Get("/v1/maps/nope/events")->status, 404);
-  v1::CreateMapRequest create;
-  create.set_map_id("live");
-  ASSERT_EQ(http.Post("/v1/maps", ToJsonBody(create), "application/json")->status, 200);
+  ASSERT_NO_FATAL_FAILURE(CreateLiveMap(http));
   {
     EventReader first(server->http_port(), "/v1/maps/live/events");
     ASSERT_TRUE(first.WaitFor("event: map\n", 1));
@@ -269,9 +274,7 @@ TEST(MapEventsTest, DeletedMapEndsTheStream) {
   std::unique_ptr<server::Server> server = StartServer("");
   ASSERT_NE(server, nullptr);
   httplib::Client http("127.0.0.1", server->http_port());
-  v1::CreateMapRequest create;
-  create.set_map_id("live");
-  ASSERT_EQ(http.Post("/v1/maps", ToJsonBody(create), "application/json")->status, 200);
+  ASSERT_NO_FATAL_FAILURE(CreateLiveMap(http));
   EventReader events(server->http_port(), "/v1/maps/live/events");
   ASSERT_TRUE(events.WaitFor("event: map\n", 1));
   ASSERT_EQ(http.Delete("/v1/maps/live")->status, 200);
@@ -282,9 +285,7 @@ TEST(MapEventsTest, ShutdownEndsOpenStreamsPromptly) {
   std::unique_ptr<server::Server> server = StartServer("");
   ASSERT_NE(server, nullptr);
   httplib::Client http("127.0.0.1", server->http_port());
-  v1::CreateMapRequest create;
-  create.set_map_id("live");
-  ASSERT_EQ(http.Post("/v1/maps", ToJsonBody(create), "application/json")->status, 200);
+  ASSERT_NO_FATAL_FAILURE(CreateLiveMap(http));
   EventReader a(server->http_port(), "/v1/maps/live/events");
   EventReader b(server->http_port(), "/v1/maps/live/events");
   ASSERT_TRUE(a.WaitFor("event: map\n", 1));
