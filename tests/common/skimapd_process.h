@@ -46,7 +46,8 @@ class SkimapdProcess {
   SkimapdProcess& operator=(const SkimapdProcess&) = delete;
 
   // Forks skimapd on 127.0.0.1:<free port> with a fresh data dir (the same one again after
-  // CrashAndRestart) and waits until it accepts calls (Unavailable after 20 s).
+  // CrashAndRestart) and waits until it accepts calls (Unavailable after 20 s,
+  // FailedPrecondition as soon as the process exits).
   absl::Status Start() { return StartOn("127.0.0.1"); }
   // Like Start, listening on `host` (clients still connect through 127.0.0.1).
   absl::Status StartOn(const std::string& host) {
@@ -73,7 +74,14 @@ class SkimapdProcess {
       execv(binary_.c_str(), argv.data());
       _exit(127);
     }
-    return client::MapClient::Connect(address_)->WaitForServer(absl::Seconds(20));
+    // Waits in short steps so a process that refuses to start fails the call at once.
+    auto client = client::MapClient::Connect(address_);
+    const absl::Time deadline = absl::Now() + absl::Seconds(20);
+    for (;;) {
+      absl::Status ready = client->WaitForServer(absl::Milliseconds(200));
+      if (ready.ok() || absl::Now() >= deadline) return ready;
+      if (!Running()) return absl::FailedPreconditionError("skimapd exited at start");
+    }
   }
 
   // True while the process has not exited.
