@@ -202,6 +202,19 @@ absl::StatusOr<v1::RadiusSearchResponse> MapClient::RadiusSearch(
   return Call(&v1::MapService::Stub::RadiusSearch, request.map(), request);
 }
 
+absl::StatusOr<std::vector<v1::Instance>> MapClient::ListAllInstances(
+    v1::ListInstancesRequest request) {
+  std::vector<v1::Instance> out;
+  for (;;) {
+    absl::StatusOr<v1::ListInstancesResponse> page =
+        Call(&v1::MapService::Stub::ListInstances, request.map(), request);
+    if (!page.ok()) return page.status();
+    out.insert(out.end(), page->instances().begin(), page->instances().end());
+    if (page->next_page_token().empty()) return out;
+    request.set_page_token(page->next_page_token());
+  }
+}
+
 absl::Status MapClient::ExportMap(const v1::ExportMapRequest& request,
                                   const std::function<absl::Status(std::string_view)>& sink) {
   v1::MapService::Stub* stub = StubForMap(request.name());

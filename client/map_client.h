@@ -74,6 +74,9 @@ class MapClient {
   // Every voxel of the request's box, via StreamVoxels.
   absl::StatusOr<std::vector<v1::Voxel>> GetAllVoxels(const v1::GetVoxelsRequest& request);
   absl::StatusOr<v1::RadiusSearchResponse> RadiusSearch(const v1::RadiusSearchRequest& r);
+  // Every instance the request selects, following page tokens (the request's page_token
+  // is where the listing starts).
+  absl::StatusOr<std::vector<v1::Instance>> ListAllInstances(v1::ListInstancesRequest request);
 
   // ExportMap: hands the pieces of the map's export file to `sink`, in order, as they
   // arrive (nothing is buffered here). An error of `sink` cancels the call and is returned;

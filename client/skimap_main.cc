@@ -12,6 +12,8 @@
 //   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | build | classifier
 //     (client/objects_command.h)
 //   skimap nodes                               a fleet's nodes and the maps each serves
+//   skimap instances --map=ID [--box=..|--sphere=..] [--objects=..] [--min_score=S] [--json]
+//     (client/instances_command.h); `stream --recognition=newest` creates a map with it on
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -22,6 +24,7 @@
 #include "absl/flags/usage.h"
 #include "absl/strings/str_format.h"
 #include "client/map_client.h"
+#include "client/instances_command.h"
 #include "client/map_files.h"
 #include "client/objects_command.h"
 #include "client/stream_command.h"
@@ -36,6 +39,14 @@ ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
 ABSL_FLAG(bool, with_journal, false,
           "export: also the map's journal (UpdatePoses then works on the imported frames)");
 ABSL_FLAG(std::string, as, "", "import: the new map's id (default: the id in the file)");
+ABSL_FLAG(std::string, recognition, "off",
+          "stream: when the map is created, recognition on it: off, newest (skip frames while "
+          "busy) or every_frame (acks wait for it)");
+ABSL_FLAG(std::string, box, "", "instances: region X0,Y0,Z0,X1,Y1,Z1 in metres");
+ABSL_FLAG(std::string, sphere, "", "instances: region X,Y,Z,R in metres");
+ABSL_FLAG(std::string, objects, "", "instances: only these obj_ids, e.g. 1,5");
+ABSL_FLAG(double, min_score, 0, "instances: minimum score");
+ABSL_FLAG(bool, json, false, "instances: JSON in the BOP convention (R row-major, t in mm)");
 
 namespace {
 
@@ -200,7 +211,9 @@ int main(int argc, char** argv) {
       "       skimap import FILE [--as=ID]\n"
       "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
       "[--detector=ORB]|build|classifier\n"
-      "       skimap nodes");
+      "       skimap nodes\n"
+      "       skimap instances --map=ID [--box=X0,Y0,Z0,X1,Y1,Z1|--sphere=X,Y,Z,R] "
+      "[--objects=1,5] [--min_score=S] [--json]");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -219,11 +232,12 @@ int main(int argc, char** argv) {
   if (command == "nodes") return Nodes(*client);
   if (command == "import") return Import(*client, args);
   const bool needs_map = command == "stream" || command == "grid" || command == "heightmap" ||
-                         command == "voxels" || command == "export";
+                         command == "voxels" || command == "export" || command == "instances";
   if (needs_map && absl::GetFlag(FLAGS_map).empty()) {
     return Fail(absl::InvalidArgumentError(command + " needs --map=ID"));
   }
-  if (command != "stream" && needs_map && absl::GetFlag(FLAGS_o).empty()) {
+  if (command != "stream" && command != "instances" && needs_map &&
+      absl::GetFlag(FLAGS_o).empty()) {
     return Fail(absl::InvalidArgumentError(command + " needs -o FILE"));
   }
   if (command == "stream") {
@@ -233,6 +247,17 @@ int main(int argc, char** argv) {
     options.fps = absl::GetFlag(FLAGS_fps);
     options.resolution = absl::GetFlag(FLAGS_resolution);
     options.window = absl::GetFlag(FLAGS_window);
+    const std::string recognition = absl::GetFlag(FLAGS_recognition);
+    if (recognition == "newest" || recognition == "every_frame") {
+      options.recognition.emplace();
+      options.recognition->set_enabled(true);
+      options.recognition->set_policy(recognition == "newest"
+                                          ? v1::RecognitionOptions::NEWEST
+                                          : v1::RecognitionOptions::EVERY_FRAME);
+    } else if (recognition != "off") {
+      return Fail(absl::InvalidArgumentError("--recognition: off, newest or every_frame, not \"" +
+                                             recognition + "\""));
+    }
     absl::Status s = skimap::client::StreamDataset(*client, args[2], options);
     return s.ok() ? 0 : Fail(s);
   }
@@ -240,5 +265,16 @@ int main(int argc, char** argv) {
   if (command == "heightmap") return HeightMap(*client);
   if (command == "voxels") return Voxels(*client);
   if (command == "export") return Export(*client);
+  if (command == "instances") {
+    skimap::client::InstancesOptions options;
+    options.map_id = absl::GetFlag(FLAGS_map);
+    options.box = absl::GetFlag(FLAGS_box);
+    options.sphere = absl::GetFlag(FLAGS_sphere);
+    options.objects = absl::GetFlag(FLAGS_objects);
+    options.min_score = absl::GetFlag(FLAGS_min_score);
+    options.json = absl::GetFlag(FLAGS_json);
+    absl::Status s = skimap::client::RunInstancesCommand(*client, options);
+    return s.ok() ? 0 : Fail(s);
+  }
   return Fail(absl::InvalidArgumentError("unknown command " + command + " (see --help)"));
 }

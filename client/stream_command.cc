@@ -35,6 +35,9 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
     v1::CreateMapRequest create;
     create.set_map_id(options.map_id);
     create.mutable_options()->set_resolution(options.resolution);
+    if (options.recognition.has_value()) {
+      *create.mutable_options()->mutable_recognition() = *options.recognition;
+    }
     map = client.CreateMap(create);
   }
   if (!map.ok()) return map.status();

@@ -5,6 +5,7 @@
 #ifndef CLIENT_STREAM_COMMAND_H_
 #define CLIENT_STREAM_COMMAND_H_
 
+#include <optional>
 #include <string>
 
 #include "absl/status/status.h"
@@ -18,6 +19,8 @@ struct StreamOptions {
   double resolution = 0.05;  // metres, only used to create the map
   int window = 8;            // frames in flight
   bool quiet = false;        // no progress line
+  // Recognition on the map, when this stream creates it (an existing map keeps its own).
+  std::optional<v1::RecognitionOptions> recognition;
 };
 
 // OK when every frame was acknowledged OK; otherwise the first error (after streaming all).
