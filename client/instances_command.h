@@ -23,8 +23,8 @@ namespace skimap::client {
 
 struct InstancesOptions {
   std::string map_id;
-  std::string box;     // "X0,Y0,Z0,X1,Y1,Z1" metres, or empty
-  std::string sphere;  // "X,Y,Z,R" metres, or empty
+  std::string box;      // "X0,Y0,Z0,X1,Y1,Z1" metres, or empty
+  std::string sphere;   // "X,Y,Z,R" metres, or empty
   std::string objects;  // "1,5": obj_ids, or empty for all
   double min_score = 0;
   bool json = false;

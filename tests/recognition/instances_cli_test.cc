@@ -22,8 +22,8 @@ struct CliRun {
 // Runs the skimap CLI against the world's server with `args`.
 CliRun Cli(const std::string& args) {
   RecognitionWorld& w = World();
-  const std::string command = absl::StrCat(SKIMAP_CLI_PATH, " --server=127.0.0.1:",
-                                           w.server->grpc_port(), " ", args, " 2>&1");
+  const std::string command = absl::StrCat(
+      SKIMAP_CLI_PATH, " --server=127.0.0.1:", w.server->grpc_port(), " ", args, " 2>&1");
   CliRun run;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return run;
@@ -65,10 +65,11 @@ TEST(InstancesCliTest, RegionAndObjectFiltersSelectTheSameAsTheApi) {
   // A 10 cm sphere around the first instance holds it and only what lies that close.
   const v1::Vec3& p = all.front().pose().translation();
   CliRun run = Cli(absl::StrCat("instances --map=scene --json --sphere=", p.x(), ",", p.y(), ",",
-                             p.z(), ",0.1"));
+                                p.z(), ",0.1"));
   ASSERT_EQ(run.exit_code, 0) << run.out;
   std::set<uint64_t> ids;
-  for (const nlohmann::json& j : nlohmann::json::parse(run.out)) ids.insert(j["id"].get<uint64_t>());
+  for (const nlohmann::json& j : nlohmann::json::parse(run.out))
+    ids.insert(j["id"].get<uint64_t>());
   EXPECT_TRUE(ids.count(all.front().id()));
   for (const v1::Instance& i : all) {
     const v1::Vec3& q = i.pose().translation();
@@ -104,8 +105,8 @@ TEST(InstancesCliTest, BadFlagsAndMapsAreNamed) {
 }
 
 TEST(InstancesCliTest, StreamWithRecognitionCreatesARecognisingMap) {
-  const CliRun run = Cli("stream " + World().scene +
-                      " --map=cli_stream --resolution=0.02 --recognition=newest");
+  const CliRun run =
+      Cli("stream " + World().scene + " --map=cli_stream --resolution=0.02 --recognition=newest");
   ASSERT_EQ(run.exit_code, 0) << run.out;
   absl::StatusOr<v1::Map> map = World().client->GetMap("maps/cli_stream");
   ASSERT_TRUE(map.ok()) << map.status();
