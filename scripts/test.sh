@@ -12,11 +12,12 @@ jobs=$(nproc)
 bash scripts/build.sh release
 (cd build/release && ctest --output-on-failure -j "$jobs" --timeout 600)
 bash scripts/build.sh asan
-# The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and the
-# object pipeline's end-to-end training tests (165+60+42+37 s under ASan: they run in the
-# release pass; their code runs under ASan through the recognition test, which trains the
-# same objects through the object service, and the unit tests of each part).
-heavy='^ObjectPipelineTest[.]'
+# The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and two
+# compute-bound end-to-end suites that run in the release pass only: the object pipeline's
+# training tests (300 s under ASan) and the recognition suite (its world, trained objects
+# and a recognised scene, takes 400 s under ASan; 12 minutes in all). Their code runs under
+# ASan through the object service tests and the unit tests of each part.
+heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$)'
 (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --output-on-failure -j "$jobs" -LE fuzz -E "$heavy" --timeout 900)

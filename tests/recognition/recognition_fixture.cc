@@ -100,6 +100,14 @@ void TrainObjects(RecognitionWorld& w) {
   ASSERT_TRUE(op.ok()) << op.status();
 }
 
+// The world's client: calls may take minutes under a sanitizer (UpdatePoses re-keys every
+// volume of the map), so the deadline is 10 minutes, not the default minute.
+client::MapClient::Options ClientOptions() {
+  client::MapClient::Options options;
+  options.timeout = absl::Minutes(10);
+  return options;
+}
+
 void StreamScene(RecognitionWorld& w) {
   v1::CreateMapRequest create;
   create.set_map_id("scene");
@@ -164,7 +172,8 @@ RecognitionWorld* Build() {
   fs::create_directories(w->data_dir);
   w->server = Start(w->data_dir);
   if (w->server == nullptr) return w;
-  w->client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w->server->grpc_port()));
+  w->client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w->server->grpc_port()),
+                                         ClientOptions());
   TrainObjects(*w);
   StreamScene(*w);
   return w;
@@ -183,7 +192,8 @@ void RestartWorld() {
   w.server.reset();
   w.server = Start(w.data_dir);
   ASSERT_NE(w.server, nullptr);
-  w.client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w.server->grpc_port()));
+  w.client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w.server->grpc_port()),
+                                        ClientOptions());
 }
 
 std::vector<v1::Instance> AllInstances(client::MapClient& c, const std::string& map) {
