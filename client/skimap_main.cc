@@ -14,6 +14,8 @@
 //   skimap nodes                               a fleet's nodes and the maps each serves
 //   skimap instances --map=ID [--box=..|--sphere=..] [--objects=..] [--min_score=S] [--json]
 //     (client/instances_command.h); `stream --recognition=newest` creates a map with it on
+//   skimap eval DATASET [--scenes=..] [--every=N] [--max_frames=N] [--csv=FILE]
+//     recognition precision / recall on a BOP dataset's test scenes (client/eval_command.h)
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -23,6 +25,7 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_format.h"
+#include "client/eval_command.h"
 #include "client/instances_command.h"
 #include "client/map_client.h"
 #include "client/map_files.h"
@@ -47,6 +50,13 @@ ABSL_FLAG(std::string, sphere, "", "instances: region X,Y,Z,R in metres");
 ABSL_FLAG(std::string, objects, "", "instances: only these obj_ids, e.g. 1,5");
 ABSL_FLAG(double, min_score, 0, "instances: minimum score");
 ABSL_FLAG(bool, json, false, "instances: JSON in the BOP convention (R row-major, t in mm)");
+ABSL_FLAG(std::string, scenes, "", "eval: test scene folder names, comma-separated (default all)");
+ABSL_FLAG(int, every, 1, "eval: stream every n-th frame");
+ABSL_FLAG(int, max_frames, 0, "eval: frames per scene at most (0 = all)");
+ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this distance");
+ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
+ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
+ABSL_FLAG(bool, keep_maps, false, "eval: keep the eval_<scene> maps");
 
 namespace {
 
@@ -213,7 +223,10 @@ int main(int argc, char** argv) {
       "[--detector=ORB]|build|classifier\n"
       "       skimap nodes\n"
       "       skimap instances --map=ID [--box=X0,Y0,Z0,X1,Y1,Z1|--sphere=X,Y,Z,R] "
-      "[--objects=1,5] [--min_score=S] [--json]");
+      "[--objects=1,5] [--min_score=S] [--json]\n"
+      "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
+      "[--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10] [--csv=FILE] "
+      "[--keep_maps]");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -231,6 +244,22 @@ int main(int argc, char** argv) {
   if (command == "maps") return Maps(*client, args);
   if (command == "nodes") return Nodes(*client);
   if (command == "import") return Import(*client, args);
+  if (command == "eval") {
+    if (args.size() < 3) return Fail(absl::InvalidArgumentError("eval needs a DATASET path"));
+    skimap::client::EvalOptions options;
+    options.scenes = absl::GetFlag(FLAGS_scenes);
+    options.every = absl::GetFlag(FLAGS_every);
+    options.max_frames = absl::GetFlag(FLAGS_max_frames);
+    options.resolution = absl::GetFlag(FLAGS_resolution);
+    options.score.max_translation = absl::GetFlag(FLAGS_max_translation_mm) / 1000;
+    options.score.max_rotation_deg = absl::GetFlag(FLAGS_max_rotation_deg);
+    options.csv = absl::GetFlag(FLAGS_csv);
+    options.keep_maps = absl::GetFlag(FLAGS_keep_maps);
+    if (options.every < 1) return Fail(absl::InvalidArgumentError("--every must be at least 1"));
+    absl::StatusOr<skimap::client::EvalTotals> totals =
+        skimap::client::RunEval(*client, args[2], options);
+    return totals.ok() ? 0 : Fail(totals.status());
+  }
   const bool needs_map = command == "stream" || command == "grid" || command == "heightmap" ||
                          command == "voxels" || command == "export" || command == "instances";
   if (needs_map && absl::GetFlag(FLAGS_map).empty()) {

@@ -1,5 +1,6 @@
 #include "client/stream_command.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -29,6 +30,14 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
                            const StreamOptions& options) {
   absl::StatusOr<std::vector<dataset::Frame>> frames = LoadDatasetFrames(dataset_path);
   if (!frames.ok()) return frames.status();
+  if (options.every > 1 || options.max_frames > 0) {
+    std::vector<dataset::Frame> kept;
+    for (size_t i = 0; i < frames->size(); i += std::max(1, options.every)) {
+      if (options.max_frames > 0 && static_cast<int>(kept.size()) >= options.max_frames) break;
+      kept.push_back((*frames)[i]);
+    }
+    *frames = std::move(kept);
+  }
   const std::string map_name = absl::StrCat("maps/", options.map_id);
   absl::StatusOr<v1::Map> map = client.GetMap(map_name);
   if (absl::IsNotFound(map.status())) {

@@ -19,6 +19,8 @@ struct StreamOptions {
   double resolution = 0.05;  // metres, only used to create the map
   int window = 8;            // frames in flight
   bool quiet = false;        // no progress line
+  int every = 1;             // send every n-th frame of the dataset
+  int max_frames = 0;        // send at most this many; 0 = all
   // Recognition on the map, when this stream creates it (an existing map keeps its own).
   std::optional<v1::RecognitionOptions> recognition;
 };

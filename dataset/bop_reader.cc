@@ -173,6 +173,52 @@ absl::StatusOr<std::map<int, ModelInfo>> LoadModelsInfo(const std::string& path)
     m.diameter = v[0];
     m.min = {v[1], v[2], v[3]};
     m.size = {v[4], v[5], v[6]};
+    if (e->contains("symmetries_discrete")) {
+      const nlohmann::json& list = (*e)["symmetries_discrete"];
+      if (!list.is_array()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(path, ": ", where, ".symmetries_discrete: not an array"));
+      }
+      for (size_t k = 0; k < list.size(); ++k) {
+        nlohmann::json holder = {{"m", list[k]}};
+        auto m16 =
+            GetNumbers(holder, "m", 16, path, absl::StrCat(where, ".symmetries_discrete[", k, "]"));
+        if (!m16.ok()) return m16.status();
+        Eigen::Isometry3d S = Eigen::Isometry3d::Identity();
+        for (int r = 0; r < 3; ++r) {
+          for (int c = 0; c < 3; ++c) S.linear()(r, c) = (*m16)[r * 4 + c];
+          S.translation()[r] = (*m16)[r * 4 + 3] * 1e-3;
+        }
+        m.symmetries.push_back(S);
+      }
+    }
+    if (e->contains("symmetries_continuous")) {
+      const nlohmann::json& list = (*e)["symmetries_continuous"];
+      if (!list.is_array()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(path, ": ", where, ".symmetries_continuous: not an array"));
+      }
+      for (size_t k = 0; k < list.size(); ++k) {
+        const std::string at = absl::StrCat(where, ".symmetries_continuous[", k, "]");
+        auto axis = GetNumbers(list[k], "axis", 3, path, at);
+        if (!axis.ok()) return axis.status();
+        auto offset = GetNumbers(list[k], "offset", 3, path, at);
+        if (!offset.ok()) return offset.status();
+        const Eigen::Vector3d a((*axis)[0], (*axis)[1], (*axis)[2]);
+        if (a.norm() < 1e-9) {
+          return absl::InvalidArgumentError(absl::StrCat(path, ": ", at, ".axis: zero vector"));
+        }
+        const Eigen::Vector3d o = Eigen::Vector3d((*offset)[0], (*offset)[1], (*offset)[2]) * 1e-3;
+        for (double deg = kContinuousSymmetryStepDeg; deg < 360;
+             deg += kContinuousSymmetryStepDeg) {
+          // A turn about the axis through `offset`: x -> R (x - o) + o.
+          Eigen::Isometry3d S = Eigen::Isometry3d::Identity();
+          S.linear() = Eigen::AngleAxisd(deg * M_PI / 180, a.normalized()).toRotationMatrix();
+          S.translation() = o - S.linear() * o;
+          m.symmetries.push_back(S);
+        }
+      }
+    }
     char name[32];
     std::snprintf(name, sizeof(name), "obj_%06d.ply", id);
     const std::string ply = (dir.empty() ? std::string(".") : dir) + "/" + name;

@@ -70,7 +70,13 @@ struct ModelInfo {
   Eigen::Vector3d min{0, 0, 0};   // bounding box corner, model frame, metres
   Eigen::Vector3d size{0, 0, 0};  // bounding box extent, metres
   std::string ply_path;           // models/obj_XXXXXX.ply if that file exists, else ""
+  // The model's symmetries (model <- model, metres) from models_info.json: every
+  // symmetries_discrete transform, and each symmetries_continuous axis sampled every
+  // kContinuousSymmetryStepDeg degrees (BOP convention: a pose P and P * S look the same).
+  // The identity is not listed. Empty for an object without symmetries.
+  std::vector<Eigen::Isometry3d> symmetries;
 };
+inline constexpr double kContinuousSymmetryStepDeg = 2.0;
 
 // A sequence of frames (a BOP scene folder or a TUM sequence).
 struct Sequence {

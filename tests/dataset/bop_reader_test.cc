@@ -126,5 +126,44 @@ TEST_F(BopReaderErrorTest, WrongImageSizeIsRejected) {
   EXPECT_NE(img.status().message().find("640x480"), std::string::npos);
 }
 
+TEST_F(BopReaderErrorTest, ModelSymmetriesAreReadInMetresAndBadOnesNamed) {
+  // Object 1: a half turn about z with a 10 mm shift; object 2: continuous about z through
+  // (0, 0, 5) mm; object 3: none. (BOP models_info.json, millimetres.)
+  Write("models_info.json", R"({
+    "1": {"diameter": 100, "min_x": 0, "min_y": 0, "min_z": 0, "size_x": 1, "size_y": 1,
+          "size_z": 1, "symmetries_discrete": [[-1, 0, 0, 10, 0, -1, 0, 0, 0, 0, 1, 0,
+                                                0, 0, 0, 1]]},
+    "2": {"diameter": 100, "min_x": 0, "min_y": 0, "min_z": 0, "size_x": 1, "size_y": 1,
+          "size_z": 1, "symmetries_continuous": [{"axis": [0, 0, 1], "offset": [0, 0, 5]}]},
+    "3": {"diameter": 100, "min_x": 0, "min_y": 0, "min_z": 0, "size_x": 1, "size_y": 1,
+          "size_z": 1}})");
+  auto models = LoadModelsInfo((dir_ / "models_info.json").string());
+  ASSERT_TRUE(models.ok()) << models.status();
+  ASSERT_EQ((*models)[1].symmetries.size(), 1u);
+  const Eigen::Isometry3d& half = (*models)[1].symmetries[0];
+  EXPECT_TRUE(half.linear().isApprox(
+      Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix(), 1e-12));
+  EXPECT_NEAR(half.translation().x(), 0.010, 1e-12);
+  // 2-degree steps over the turn, the identity left out; points on the axis stay put.
+  const std::vector<Eigen::Isometry3d>& turn = (*models)[2].symmetries;
+  ASSERT_EQ(turn.size(), static_cast<size_t>(360 / kContinuousSymmetryStepDeg) - 1);
+  for (const Eigen::Isometry3d& S : turn) {
+    EXPECT_TRUE((S * Eigen::Vector3d(0, 0, 0.005)).isApprox(Eigen::Vector3d(0, 0, 0.005), 1e-12));
+  }
+  EXPECT_TRUE((*models)[3].symmetries.empty());
+  Write("models_info.json", R"({"1": {"diameter": 100, "min_x": 0, "min_y": 0, "min_z": 0,
+    "size_x": 1, "size_y": 1, "size_z": 1, "symmetries_discrete": [[1, 0, 0]]}})");
+  models = LoadModelsInfo((dir_ / "models_info.json").string());
+  EXPECT_EQ(models.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(models.status().message().find("symmetries_discrete[0]"), std::string::npos)
+      << models.status();
+  Write("models_info.json", R"({"1": {"diameter": 100, "min_x": 0, "min_y": 0, "min_z": 0,
+    "size_x": 1, "size_y": 1, "size_z": 1,
+    "symmetries_continuous": [{"axis": [0, 0, 0], "offset": [0, 0, 0]}]}})");
+  models = LoadModelsInfo((dir_ / "models_info.json").string());
+  EXPECT_EQ(models.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(models.status().message().find("axis"), std::string::npos) << models.status();
+}
+
 }  // namespace
 }  // namespace skimap::dataset

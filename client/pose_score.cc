@@ -1,0 +1,86 @@
+#include "client/pose_score.h"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+namespace skimap::client {
+
+PoseError ErrorUnderSymmetries(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth,
+                               const std::vector<Eigen::Isometry3d>& symmetries) {
+  auto error = [&](const Eigen::Isometry3d& t) {
+    const Eigen::Quaterniond a(estimate.linear()), b(t.linear());
+    return PoseError{(estimate.translation() - t.translation()).norm(),
+                     a.angularDistance(b) * 180 / M_PI};
+  };
+  PoseError best = error(truth);
+  for (const Eigen::Isometry3d& S : symmetries) {
+    const PoseError e = error(truth * S);
+    // The symmetric equivalent that is closest in rotation, then in translation.
+    if (std::tie(e.rotation_deg, e.translation) < std::tie(best.rotation_deg, best.translation)) {
+      best = e;
+    }
+  }
+  return best;
+}
+
+Eigen::Isometry3d InstancePose(const v1::Instance& instance) {
+  const v1::Quaternion& q = instance.pose().rotation();
+  const v1::Vec3& t = instance.pose().translation();
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()).normalized().toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(t.x(), t.y(), t.z());
+  return pose;
+}
+
+SceneScore ScoreScene(const std::vector<TruthObject>& truths,
+                      const std::vector<v1::Instance>& instances,
+                      const std::map<int, dataset::ModelInfo>& models,
+                      const ScoreOptions& options) {
+  SceneScore score;
+  score.truths = static_cast<int>(truths.size());
+  score.instances = static_cast<int>(instances.size());
+  score.match.assign(truths.size(), -1);
+  score.error.assign(truths.size(), PoseError{});
+  // Every (truth, instance) pair within tolerance, closest first.
+  struct Pair {
+    double translation;
+    size_t truth, instance;
+    PoseError error;
+  };
+  std::vector<Pair> pairs;
+  static const std::vector<Eigen::Isometry3d> kNone;
+  for (size_t t = 0; t < truths.size(); ++t) {
+    auto model = models.find(truths[t].obj_id);
+    const std::vector<Eigen::Isometry3d>& symmetries =
+        model == models.end() ? kNone : model->second.symmetries;
+    for (size_t i = 0; i < instances.size(); ++i) {
+      if (instances[i].obj_id() != truths[t].obj_id) continue;
+      const PoseError e =
+          ErrorUnderSymmetries(InstancePose(instances[i]), truths[t].pose, symmetries);
+      if (e.translation <= options.max_translation && e.rotation_deg <= options.max_rotation_deg) {
+        pairs.push_back({e.translation, t, i, e});
+      }
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+    return std::tie(a.translation, a.truth, a.instance) <
+           std::tie(b.translation, b.truth, b.instance);
+  });
+  std::vector<bool> instance_used(instances.size(), false);
+  for (const Pair& p : pairs) {
+    if (score.match[p.truth] >= 0 || instance_used[p.instance]) continue;
+    score.match[p.truth] = static_cast<int>(p.instance);
+    score.error[p.truth] = p.error;
+    instance_used[p.instance] = true;
+    ++score.true_positives;
+  }
+  for (size_t t = 0; t < truths.size(); ++t) {
+    std::pair<int, int>& o = score.per_object[truths[t].obj_id];
+    ++o.second;
+    if (score.match[t] >= 0) ++o.first;
+  }
+  return score;
+}
+
+}  // namespace skimap::client

@@ -1,0 +1,58 @@
+// Scoring recognised instances against a dataset's ground truth (what `skimap eval`
+// reports): an instance is a true positive for a ground-truth object when it names the same
+// object and its pose is within max_translation and max_rotation_deg of the truth or of a
+// symmetric equivalent (truth * S for the model's symmetries S, BOP convention). Each truth
+// and each instance is matched at most once (greedily, the closest first).
+//
+// Thread safety: pure functions.
+#ifndef CLIENT_POSE_SCORE_H_
+#define CLIENT_POSE_SCORE_H_
+
+#include <map>
+#include <vector>
+
+#include "Eigen/Geometry"
+#include "dataset/types.h"
+#include "skimap/v1/instances.pb.h"
+
+namespace skimap::client {
+
+struct TruthObject {
+  int obj_id = 0;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // world <- model
+};
+
+struct ScoreOptions {
+  double max_translation = 0.03;  // metres
+  double max_rotation_deg = 10;
+};
+
+// Translation (metres) and rotation (degrees) error of `estimate` against `truth`, the
+// smallest over truth * S for S in {identity} + `symmetries`.
+struct PoseError {
+  double translation = 0;
+  double rotation_deg = 0;
+};
+PoseError ErrorUnderSymmetries(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth,
+                               const std::vector<Eigen::Isometry3d>& symmetries);
+
+// The instance's pose as an isometry (world <- model).
+Eigen::Isometry3d InstancePose(const v1::Instance& instance);
+
+struct SceneScore {
+  int truths = 0, instances = 0, true_positives = 0;
+  // Per truth (in order): the matched instance's index, or -1; and its error when matched.
+  std::vector<int> match;
+  std::vector<PoseError> error;
+  // Per obj_id: {found, annotated}.
+  std::map<int, std::pair<int, int>> per_object;
+};
+
+// `models` by obj_id gives the symmetries (an object missing from it has none).
+SceneScore ScoreScene(const std::vector<TruthObject>& truths,
+                      const std::vector<v1::Instance>& instances,
+                      const std::map<int, dataset::ModelInfo>& models, const ScoreOptions& options);
+
+}  // namespace skimap::client
+
+#endif  // CLIENT_POSE_SCORE_H_

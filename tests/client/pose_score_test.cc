@@ -1,0 +1,72 @@
+// client/pose_score.h: errors under symmetries and one-to-one matching.
+#include "client/pose_score.h"
+
+#include <gtest/gtest.h>
+
+namespace skimap::client {
+namespace {
+
+Eigen::Isometry3d Pose(double angle_z_deg, Eigen::Vector3d t) {
+  Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
+  p.linear() =
+      Eigen::AngleAxisd(angle_z_deg * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  p.translation() = t;
+  return p;
+}
+
+v1::Instance Instance(uint64_t id, int obj_id, const Eigen::Isometry3d& pose) {
+  v1::Instance i;
+  i.set_id(id);
+  i.set_obj_id(obj_id);
+  const Eigen::Quaterniond q(pose.linear());
+  i.mutable_pose()->mutable_rotation()->set_w(q.w());
+  i.mutable_pose()->mutable_rotation()->set_x(q.x());
+  i.mutable_pose()->mutable_rotation()->set_y(q.y());
+  i.mutable_pose()->mutable_rotation()->set_z(q.z());
+  i.mutable_pose()->mutable_translation()->set_x(pose.translation().x());
+  i.mutable_pose()->mutable_translation()->set_y(pose.translation().y());
+  i.mutable_pose()->mutable_translation()->set_z(pose.translation().z());
+  return i;
+}
+
+TEST(PoseScoreTest, ASymmetricEquivalentCountsAsTheTruth) {
+  const Eigen::Isometry3d truth = Pose(30, {1, 2, 0.5});
+  const Eigen::Isometry3d turned = truth * Pose(180, {0, 0, 0});  // half a turn about z
+  PoseError plain = ErrorUnderSymmetries(turned, truth, {});
+  EXPECT_NEAR(plain.rotation_deg, 180, 1e-6);
+  PoseError symmetric = ErrorUnderSymmetries(turned, truth, {Pose(180, {0, 0, 0})});
+  EXPECT_NEAR(symmetric.rotation_deg, 0, 1e-6);
+  EXPECT_NEAR(symmetric.translation, 0, 1e-12);
+}
+
+TEST(PoseScoreTest, MatchesOneToOneWithinTheTolerance) {
+  std::map<int, dataset::ModelInfo> models;
+  models[2].symmetries = {Pose(180, {0, 0, 0})};
+  const std::vector<TruthObject> truths = {{1, Pose(0, {0, 0, 0})},
+                                           {1, Pose(0, {1, 0, 0})},
+                                           {2, Pose(90, {2, 0, 0})},
+                                           {3, Pose(0, {3, 0, 0})}};
+  const std::vector<v1::Instance> instances = {
+      Instance(10, 1, Pose(5, {0.01, 0, 0})),    // truth 0: 10 mm, 5 degrees
+      Instance(11, 1, Pose(0, {0.005, 0, 0})),   // also near truth 0, closer: takes it
+      Instance(12, 1, Pose(0, {1.05, 0, 0})),    // 5 cm from truth 1: too far
+      Instance(13, 2, Pose(270, {2.02, 0, 0})),  // truth 2 under its symmetry, 20 mm
+      Instance(14, 3, Pose(15, {3, 0, 0})),      // truth 3 turned 15 degrees: too much
+      Instance(15, 4, Pose(0, {0, 0, 0}))};      // an object not in the scene
+  const SceneScore s = ScoreScene(truths, instances, models, ScoreOptions{});
+  EXPECT_EQ(s.truths, 4);
+  EXPECT_EQ(s.instances, 6);
+  EXPECT_EQ(s.true_positives, 2);
+  EXPECT_EQ(s.match, (std::vector<int>{1, -1, 3, -1}));
+  EXPECT_NEAR(s.error[2].translation, 0.02, 1e-9);
+  EXPECT_NEAR(s.error[2].rotation_deg, 0, 1e-6);
+  EXPECT_EQ(s.per_object.at(1), std::make_pair(1, 2));
+  EXPECT_EQ(s.per_object.at(2), std::make_pair(1, 1));
+  EXPECT_EQ(s.per_object.at(3), std::make_pair(0, 1));
+  // A looser tolerance takes the far and the turned ones too.
+  const SceneScore loose = ScoreScene(truths, instances, models, {0.1, 20});
+  EXPECT_EQ(loose.true_positives, 4);
+}
+
+}  // namespace
+}  // namespace skimap::client
