@@ -8,6 +8,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "client/frame_depth.h"
 #include "client/map_client.h"
 
 namespace skimap::client {
@@ -18,6 +19,9 @@ struct StreamOptions {
   double resolution = 0.05;  // metres, only used to create the map
   int window = 8;            // frames in flight
   bool quiet = false;        // no progress line
+  // Depth on the wire (client/frame_depth.h): RVL unless told; PNG16 sends the files as
+  // stored.
+  v1::DepthEncoding depth_encoding = kDefaultDepthEncoding;
 };
 
 // OK when every frame was acknowledged OK; otherwise the first error (after streaming all).

@@ -19,7 +19,8 @@ DepthImage Ramp(int w, int h) {
 
 TEST(ImageCodecTest, DepthRoundTripsThroughEveryCodec) {
   const DepthImage d = Ramp(33, 17);
-  for (DepthCodec codec : {DepthCodec::kRawU16, DepthCodec::kPng16, DepthCodec::kZstd}) {
+  for (DepthCodec codec :
+       {DepthCodec::kRawU16, DepthCodec::kPng16, DepthCodec::kZstd, DepthCodec::kRvl}) {
     absl::StatusOr<std::string> bytes = EncodeDepth(codec, d);
     ASSERT_TRUE(bytes.ok()) << bytes.status();
     absl::StatusOr<DepthImage> back = DecodeDepth(codec, *bytes, 33, 17);
