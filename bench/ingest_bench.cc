@@ -27,11 +27,16 @@
 //     further along x (so every frame lands in new space), submitted with `window` frames
 //     in flight into one map; frames/s. Open3D integrates the same frames into one volume.
 //
+// Maps decode ahead on shared decoder threads as skimapd's MapService does; the stream run
+// also shows each codec with frames decoded on the worker (no decode-ahead) beside it.
+//
 // The variants run interleaved (frame by frame) so a loaded machine slows all of them
 // alike; ratios are ours / Open3D's.
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
+#include <cstring>
 #include <cstdio>
 #include <functional>
 #include <future>
@@ -53,6 +58,7 @@
 #include "server/maps/live_map.h"
 #include "server/maps/map_config.h"
 #include "server/maps/map_state.h"
+#include "server/work_queue.h"
 
 #ifdef SKIMAP_BENCH_OPEN3D
 #include "open3d/camera/PinholeCameraIntrinsic.h"
@@ -294,6 +300,8 @@ void Run() {
   const int laps = absl::GetFlag(FLAGS_laps);
   const size_t window = size_t(absl::GetFlag(FLAGS_window));
   ThreadPool pool(absl::GetFlag(FLAGS_worker_threads));
+  // As MapService: the shared decoder threads that decode frames ahead of map workers.
+  server::WorkQueue decoder({.capacity = 256, .threads = std::max(2, pool.workers())});
   std::printf("ingest_bench: %zu ycbv frames %dx%d, %d reps, worker_threads %d\n", frames.size(),
               frames[0].depth.width, frames[0].depth.height, reps, pool.workers());
   CodecCosts(frames, reps);
@@ -317,7 +325,10 @@ void Run() {
   for (const std::string& res_text : absl::StrSplit(absl::GetFlag(FLAGS_resolutions), ',')) {
     const double res = std::stod(res_text);
     const server::MapConfig config = Config(res);
-    const server::LiveMap::Options map_options{.config = config, .pool = &pool};
+    const server::LiveMap::Options map_options{.config = config, .pool = &pool, .decoder = &decoder};
+    // The same map with frames decoded on its worker, one image after the other (the
+    // ingestion path before issue 15's decode-ahead).
+    const server::LiveMap::Options serial_options{.config = config, .pool = &pool};
     std::vector<Samples> ours(codecs.size()), decode(codecs.size());
     Samples stage, apply, excluded, open3d;
 #ifdef SKIMAP_BENCH_OPEN3D
@@ -406,12 +417,15 @@ void Run() {
     }
 #endif
     for (size_t c = 0; c < codecs.size(); ++c) {
-      server::LiveMap map("bench", map_options);
-      const Clock::time_point t0 = Clock::now();
-      Stream(map, stream[c], window);
-      const double fps = double(stream[c].size()) / (Ms(Clock::now() - t0) / 1000);
-      std::printf("| ours, %s | %.1f | %s |\n", codecs[c].name, fps,
-                  o3d_fps > 0 ? absl::StrFormat("%.2f", fps / o3d_fps).c_str() : "-");
+      for (const bool ahead : {true, false}) {
+        server::LiveMap map("bench", ahead ? map_options : serial_options);
+        const Clock::time_point t0 = Clock::now();
+        Stream(map, stream[c], window);
+        const double fps = double(stream[c].size()) / (Ms(Clock::now() - t0) / 1000);
+        std::printf("| ours, %s, %s | %.1f | %s |\n", codecs[c].name,
+                    ahead ? "decode ahead (skimapd)" : "decode on the worker", fps,
+                    o3d_fps > 0 ? absl::StrFormat("%.2f", fps / o3d_fps).c_str() : "-");
+      }
     }
     if (o3d_fps > 0) std::printf("| Open3D (decoded images) | %.1f | 1 |\n", o3d_fps);
     std::fflush(stdout);

@@ -116,8 +116,8 @@ TEST(RvlCodecTest, RefusesWhatTheEncoderWouldNotWrite) {
   EXPECT_EQ(DecodeCode(Nibbles({0, 1, 1}), 1), bad);         // value -1
   EXPECT_EQ(DecodeCode(Nibbles({0 | 8, 0, 1, 2}), 1), bad);  // a non-minimal VLE
   EXPECT_EQ(DecodeCode(Nibbles(std::vector<uint32_t>(12, 8)), 1), bad);  // an over-long VLE
-  std::vector<uint16_t> out(6);
-  const absl::Status s = DecodeRvl(good.substr(0, 4), out.data(), out.size());
+  std::vector<uint16_t> out(7);
+  const absl::Status s = DecodeRvl(good, out.data(), out.size());
   EXPECT_NE(s.message().find("depth: RVL"), std::string::npos) << s;
 }
 
