@@ -26,6 +26,8 @@
 //     runs with its OpenMP team (one thread per core) and with one thread; ratios are to
 //     the faster. Every timed run (ours and Open3D's) runs on a thread of its own, as a
 //     map's worker: on the main thread, beside Open3D's OpenMP team, both were slower.
+//     Re-observed space: the same frames again into a map / volume that holds them (ours
+//     RVL + JPEG; Open3D both thread settings), Open3D's usual use.
 //  3. Stream throughput, new space: `laps` x 10 frames, each frame's pose moved 10 m
 //     further along x (so every frame lands in new space), submitted with `window` frames
 //     in flight into one map; frames/s. Open3D integrates the same frames into one volume.
@@ -425,6 +427,68 @@ void Run() {
           "| Open3D ScalableTSDFVolume::Integrate (decoded images), 1 thread | %.2f | "
           "%.2f | - | %s |\n",
           open3d_one.Median(), open3d_one.Quantile(0.9), ratio(open3d_one.Median()).c_str());
+    }
+
+    // 2b. Re-observed space: the same frames again into a map (a volume) that holds them
+    // already, RVL + JPEG for ours (the CLI's default), team and one thread for Open3D.
+    {
+      Samples warm_ours, warm_o3d, warm_o3d_one;
+      server::LiveMap map("bench", map_options);
+      Stream(map, single[5], window);
+#ifdef SKIMAP_BENCH_OPEN3D
+      std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> volumes[2];
+      for (const int threads : {0, 1}) {
+        runner.Run([&] {
+          omp_set_num_threads(threads == 0 ? omp_get_num_procs() : threads);
+          volumes[threads] = NewVolume(res);
+          for (const Open3dFrame& f : o3d_frames) {
+            volumes[threads]->Integrate(*f.rgbd, f.intrinsic, f.extrinsic);
+          }
+        });
+      }
+#endif
+      uint64_t sequence = 1000;
+      for (int r = 0; r < reps; ++r) {
+        for (size_t i = 0; i < frames.size(); ++i) {
+          auto again = std::make_shared<v1::Frame>(*single[5][i]);
+          again->set_sequence(++sequence);
+          std::promise<absl::StatusOr<v1::FrameAck>> done;
+          const Clock::time_point t0 = Clock::now();
+          map.SubmitFrame(
+              again, [&](absl::StatusOr<v1::FrameAck> ack) { done.set_value(std::move(ack)); });
+          if (absl::StatusOr<v1::FrameAck> ack = done.get_future().get(); !ack.ok()) {
+            Die(ack.status().ToString());
+          }
+          warm_ours.Add(Ms(Clock::now() - t0));
+#ifdef SKIMAP_BENCH_OPEN3D
+          for (const int threads : {0, 1}) {
+            runner.Run([&] {
+              omp_set_num_threads(threads == 0 ? omp_get_num_procs() : threads);
+              const Clock::time_point t1 = Clock::now();
+              volumes[threads]->Integrate(*o3d_frames[i].rgbd, o3d_frames[i].intrinsic,
+                                          o3d_frames[i].extrinsic);
+              (threads == 0 ? warm_o3d : warm_o3d_one).Add(Ms(Clock::now() - t1));
+            });
+          }
+#endif
+        }
+      }
+      const double peer = std::min(warm_o3d.Median(), warm_o3d_one.Median());
+      std::printf(
+          "\n### Per frame, re-observed space, %.0f cm (median / p90 ms over %d samples)"
+          "\n\n| variant | ms (median) | p90 | / Open3D |\n|---|---|---|---|\n",
+          res * 100, reps * int(frames.size()));
+      std::printf("| ours, RVL + JPEG, decode included | %.2f | %.2f | %s |\n", warm_ours.Median(),
+                  warm_ours.Quantile(0.9),
+                  peer > 0 ? absl::StrFormat("%.2f", warm_ours.Median() / peer).c_str() : "-");
+      if (peer > 0) {
+        std::printf("| Open3D, %d OpenMP threads (decoded images) | %.2f | %.2f | %.2f |\n",
+                    omp_get_num_procs(), warm_o3d.Median(), warm_o3d.Quantile(0.9),
+                    warm_o3d.Median() / peer);
+        std::printf("| Open3D, 1 thread (decoded images) | %.2f | %.2f | %.2f |\n",
+                    warm_o3d_one.Median(), warm_o3d_one.Quantile(0.9),
+                    warm_o3d_one.Median() / peer);
+      }
     }
 
     // 3. Throughput: a stream of new space.
