@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "absl/strings/ascii.h"
@@ -48,7 +49,7 @@ absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string&
 }
 
 absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string& map_name,
-                                     uint64_t sequence) {
+                                     uint64_t sequence, v1::DepthEncoding depth_encoding) {
   if (!f.has_pose) {
     return absl::FailedPreconditionError(absl::StrCat("frame ", f.id, " has no camera pose"));
   }
@@ -71,8 +72,20 @@ absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string&
   k->set_height(f.K.height);
   absl::StatusOr<std::string> depth = ReadBytes(f.depth_path);
   if (!depth.ok()) return depth.status();
-  out.set_depth_encoding(v1::DEPTH_ENCODING_PNG16);
-  out.set_depth(*std::move(depth));
+  if (depth_encoding == v1::DEPTH_ENCODING_PNG16) {
+    out.set_depth_encoding(v1::DEPTH_ENCODING_PNG16);
+    out.set_depth(*std::move(depth));
+  } else {
+    const cv::Mat wrapped(1, static_cast<int>(depth->size()), CV_8UC1, depth->data());
+    const cv::Mat pixels = cv::imdecode(wrapped, cv::IMREAD_ANYDEPTH);
+    if (pixels.type() != CV_16UC1 || !pixels.isContinuous()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(f.depth_path, ": depth is not a 16-bit greyscale PNG"));
+    }
+    absl::Status s =
+        SetFrameDepth(pixels.ptr<uint16_t>(), pixels.cols, pixels.rows, &out, depth_encoding);
+    if (!s.ok()) return s;
+  }
   out.set_depth_scale(f.depth_scale / 1000.0);  // dataset: mm per unit; API: metres
   if (!f.rgb_path.empty()) {
     absl::StatusOr<std::string> color = ReadBytes(f.rgb_path);

@@ -1,5 +1,6 @@
 // Conversion of dataset frames (dataset/reader.h: BOP scenes, TUM sequences, sim output)
-// into API frames, sending the image files as stored: 16-bit PNG depth, PNG or JPEG colour.
+// into API frames: depth re-encoded as RVL by default (client/frame_depth.h) or sent as
+// stored (16-bit PNG) when asked; colour sent as stored (PNG or JPEG).
 //
 // Thread safety: functions of their arguments.
 #ifndef CLIENT_DATASET_FRAMES_H_
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "client/frame_depth.h"
 #include "dataset/types.h"
 #include "skimap/v1/frames.pb.h"
 
@@ -19,10 +21,14 @@ namespace skimap::client {
 // root (every scene of every split, in order). NotFound / InvalidArgument from the reader.
 absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string& path);
 
-// Reads the frame's files into a Frame for `map_name` with `sequence`.
-// FailedPrecondition if the frame has no pose or no depth image; NotFound for a missing file.
+// Reads the frame's files into a Frame for `map_name` with `sequence`, depth with
+// `depth_encoding` (PNG16: the file's bytes as stored; RVL / RAW_U16: decoded and
+// re-encoded). FailedPrecondition if the frame has no pose or no depth image; NotFound for
+// a missing file; InvalidArgument if the depth file is not a 16-bit PNG or the encoding is not one
+// of those three.
 absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& frame, const std::string& map_name,
-                                     uint64_t sequence);
+                                     uint64_t sequence,
+                                     v1::DepthEncoding depth_encoding = kDefaultDepthEncoding);
 
 // Writes a rigid transform as an API pose (unit quaternion w, x, y, z + translation, m).
 void ToApiPose(const Eigen::Isometry3d& T, v1::Pose* pose);

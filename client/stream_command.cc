@@ -84,7 +84,7 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
                                           std::chrono::duration<double>(sent / options.fps)));
       }
       absl::StatusOr<v1::Frame> frame =
-          ToApiFrame((*frames)[sent], map_name, first_sequence + sent);
+          ToApiFrame((*frames)[sent], map_name, first_sequence + sent, options.depth_encoding);
       if (!frame.ok()) {
         if (first_error.ok()) first_error = frame.status();
         continue;

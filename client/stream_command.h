@@ -9,6 +9,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "client/frame_depth.h"
 #include "client/map_client.h"
 
 namespace skimap::client {
@@ -23,6 +24,9 @@ struct StreamOptions {
   int max_frames = 0;        // send at most this many; 0 = all
   // Recognition on the map, when this stream creates it (an existing map keeps its own).
   std::optional<v1::RecognitionOptions> recognition;
+  // Depth on the wire (client/frame_depth.h): RVL unless told; PNG16 sends the files as
+  // stored.
+  v1::DepthEncoding depth_encoding = kDefaultDepthEncoding;
 };
 
 // OK when every frame was acknowledged OK; otherwise the first error (after streaming all).

@@ -49,7 +49,7 @@ absl::StatusOr<std::optional<v1::TrainingFrame>> ToTrainingFrame(const dataset::
   // The image part is encoded like a map frame (the camera pose does not matter here).
   dataset::Frame images = frame;
   images.has_pose = true;
-  absl::StatusOr<v1::Frame> api = ToApiFrame(images, "", 0);
+  absl::StatusOr<v1::Frame> api = ToApiFrame(images, "", 0, v1::DEPTH_ENCODING_PNG16);
   if (!api.ok()) return api.status();
   std::ifstream in(a->mask_visib_path, std::ios::binary);
   if (!in) return absl::NotFoundError(absl::StrCat("cannot read ", a->mask_visib_path));

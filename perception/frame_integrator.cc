@@ -28,9 +28,16 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   const int cols = (cam.width + stride - 1) / stride, rows = (cam.height + stride - 1) / stride;
   const Eigen::Matrix3d rot = frame.pose.rotation.toRotationMatrix();
   const Eigen::Vector3d t = frame.pose.translation;
-  // World direction of pixel (u, v) at unit depth = row_base[v] + col_term[u].
-  std::vector<Eigen::Vector3d> col_term(cols), row_base(rows);
-  for (int c = 0; c < cols; ++c) col_term[c] = rot.col(0) * ((c * stride - cam.cx) / cam.fx);
+  // World direction of pixel (u, v) at unit depth = row_base[v] + col_term[u], the column
+  // terms stored per axis so that the row loop below reads them as arrays. Kept per thread:
+  // no allocation per frame once they have grown.
+  thread_local std::vector<double> col_x, col_y, col_z;
+  thread_local std::vector<Eigen::Vector3d> row_base;
+  col_x.resize(cols), col_y.resize(cols), col_z.resize(cols), row_base.resize(rows);
+  for (int c = 0; c < cols; ++c) {
+    const Eigen::Vector3d term = rot.col(0) * ((c * stride - cam.cx) / cam.fx);
+    col_x[c] = term.x(), col_y[c] = term.y(), col_z[c] = term.z();
+  }
   for (int r = 0; r < rows; ++r) {
     row_base[r] = rot * Eigen::Vector3d(0, (r * stride - cam.cy) / cam.fy, 1);
   }
@@ -43,30 +50,50 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
     const uint16_t* row = depth + size_t(r) * stride * cam.width;
     for (int c = 0; c < cols; ++c) {
       const uint16_t d = row[c * stride];
-      if (d == 0) continue;
       const double z = d * scale;
-      if (z >= min_depth && z <= max_depth) {
-        ++in_range;
-      } else {
-        ++stats.out_of_range;
-      }
+      const bool valid = d != 0, inside = z >= min_depth && z <= max_depth;
+      in_range += valid && inside;
+      stats.out_of_range += valid && !inside;
     }
   }
-  batch->AddPoints(
-      grid, size_t(rows) * cols,
-      [&](size_t i, Point3* p, RGBWeightedVoxel* obs) {
-        const size_t r = i / cols, c = i % cols;
-        const size_t pixel = r * stride * cam.width + c * stride;
-        const uint16_t d = depth[pixel];
-        const double z = d * scale;
-        if (d == 0 || z < min_depth || z > max_depth) return false;
-        const Eigen::Vector3d w = z * (row_base[r] + col_term[c]) + t;
-        *p = {w.x(), w.y(), w.z()};
-        *obs = rgb ? RGBWeightedVoxel(rgb[3 * pixel], rgb[3 * pixel + 1], rgb[3 * pixel + 2], 1.0f)
-                   : RGBWeightedVoxel(128, 128, 128, 1.0f);
-        return true;
-      },
-      pool);
+  const double* cx = col_x.data();
+  const double* cy = col_y.data();
+  const double* cz = col_z.data();
+  const Eigen::Vector3d* bases = row_base.data();
+  // One row: z * (row_base + col_term) + t per pixel, the same arithmetic per point as a
+  // per-pixel Eigen expression (so the same keys), branch-free over the row. Everything the
+  // loop reads is a local or a restrict pointer, so GCC vectorises it (SSE2 here).
+  const double tx = t.x(), ty = t.y(), tz = t.z();
+  auto fill_row = [&, tx, ty, tz, scale, min_depth, max_depth](size_t r, Point3* __restrict points,
+                                                               RGBWeightedVoxel* obs,
+                                                               uint8_t* __restrict use) {
+    const size_t first = r * stride * cam.width;
+    const uint16_t* __restrict row = depth + first;
+    const double* __restrict xs = cx;
+    const double* __restrict ys = cy;
+    const double* __restrict zs = cz;
+    const double bx = bases[r].x(), by = bases[r].y(), bz = bases[r].z();
+    const int n = cols;
+    const size_t step = size_t(stride);
+    for (int c = 0; c < n; ++c) {
+      const uint16_t d = row[size_t(c) * step];
+      const double z = d * scale;
+      use[c] = (d != 0) & (z >= min_depth) & (z <= max_depth);
+      points[c].x = z * (bx + xs[c]) + tx;
+      points[c].y = z * (by + ys[c]) + ty;
+      points[c].z = z * (bz + zs[c]) + tz;
+    }
+    if (rgb != nullptr) {
+      const uint8_t* px = rgb + 3 * first;
+      for (int c = 0; c < cols; ++c) {
+        const uint8_t* p = px + 3 * size_t(c) * stride;
+        obs[c] = RGBWeightedVoxel(p[0], p[1], p[2], 1.0f);
+      }
+    } else {
+      for (int c = 0; c < cols; ++c) obs[c] = RGBWeightedVoxel(128, 128, 128, 1.0f);
+    }
+  };
+  batch->AddRows(grid, size_t(rows), size_t(cols), fill_row, pool);
   stats.no_key = batch->rejected();
   stats.points = in_range - stats.no_key;
   batch->Finalize(pool);

@@ -2,6 +2,7 @@
 
 #include <zstd.h>
 
+#include <bit>
 #include <cstring>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -9,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "perception/image_header.h"
+#include "perception/rvl_codec.h"
 
 namespace skimap::perception {
 namespace {
@@ -43,7 +45,9 @@ absl::StatusOr<ImageHeader> CheckHeader(const char* what, ImageFormat format,
 }
 
 // cv::imdecode of bytes whose header was checked; an empty Mat when they do not decode.
-// OpenCV reports some failures by throwing: no exception leaves this module.
+// OpenCV reports some failures by throwing: no exception leaves this module. (Decoding into
+// a caller's buffer through imdecode's `dst` is not used: a failure before decoding leaves
+// such a destination as it was, indistinguishable from success.)
 cv::Mat Decode(std::string_view bytes, int flags) {
   try {
     // This Mat aliases the bytes without copying.
@@ -72,19 +76,21 @@ std::string StoreLittleEndian(const std::vector<uint16_t>& pixels) {
 
 }  // namespace
 
-absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes, int width,
-                                       int height) {
+absl::Status DecodeDepthInto(DepthCodec codec, std::string_view bytes, int width, int height,
+                             DepthImage* out) {
   if (absl::Status s = CheckSize("depth", width, height); !s.ok()) return s;
-  const size_t raw_bytes = size_t(width) * size_t(height) * 2;
-  DepthImage image{width, height, {}};
+  const size_t count = size_t(width) * size_t(height);
+  const size_t raw_bytes = count * 2;
+  out->width = width;
+  out->height = height;
   switch (codec) {
     case DepthCodec::kRawU16:
       if (bytes.size() != raw_bytes) {
         return absl::InvalidArgumentError(absl::StrCat("depth: raw uint16 image has ", bytes.size(),
                                                        " bytes, expected ", raw_bytes));
       }
-      LoadLittleEndian(bytes, &image.pixels);
-      return image;
+      LoadLittleEndian(bytes, &out->pixels);
+      return absl::OkStatus();
     case DepthCodec::kZstd: {
       const unsigned long long claimed = ZSTD_getFrameContentSize(bytes.data(), bytes.size());
       if (claimed == ZSTD_CONTENTSIZE_ERROR || claimed == ZSTD_CONTENTSIZE_UNKNOWN) {
@@ -94,15 +100,21 @@ absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes,
         return absl::InvalidArgumentError(
             absl::StrCat("depth: zstd frame holds ", claimed, " bytes, expected ", raw_bytes));
       }
-      std::string raw(raw_bytes, '\0');
-      const size_t n = ZSTD_decompress(raw.data(), raw.size(), bytes.data(), bytes.size());
+      // The little-endian bytes straight into the pixels, then swapped on a big-endian host.
+      out->pixels.resize(count);
+      const size_t n = ZSTD_decompress(out->pixels.data(), raw_bytes, bytes.data(), bytes.size());
       if (ZSTD_isError(n) || n != raw_bytes) {
         return absl::InvalidArgumentError(absl::StrCat(
             "depth: zstd decode failed: ", ZSTD_isError(n) ? ZSTD_getErrorName(n) : "short"));
       }
-      LoadLittleEndian(raw, &image.pixels);
-      return image;
+      if constexpr (std::endian::native == std::endian::big) {
+        for (uint16_t& p : out->pixels) p = static_cast<uint16_t>(p << 8 | p >> 8);
+      }
+      return absl::OkStatus();
     }
+    case DepthCodec::kRvl:
+      out->pixels.resize(count);
+      return DecodeRvl(bytes, out->pixels.data(), count);
     case DepthCodec::kPng16: {
       if (bytes.empty()) return absl::InvalidArgumentError("depth: empty PNG");
       absl::StatusOr<ImageHeader> h = CheckHeader("depth", ImageFormat::kPng, bytes, width, height);
@@ -120,28 +132,36 @@ absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes,
       if (m.cols != width || m.rows != height) {
         return SizeMismatch("depth", m.cols, m.rows, width, height);
       }
-      image.pixels.resize(size_t(width) * height);
+      out->pixels.resize(count);
       for (int r = 0; r < height; ++r) {
-        std::memcpy(&image.pixels[size_t(r) * width], m.ptr<uint16_t>(r), size_t(width) * 2);
+        std::memcpy(&out->pixels[size_t(r) * width], m.ptr<uint16_t>(r), size_t(width) * 2);
       }
-      return image;
+      return absl::OkStatus();
     }
   }
   return absl::InvalidArgumentError("depth_encoding: unknown codec");
 }
 
-absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes, int width,
+absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes, int width,
                                        int height) {
+  DepthImage image;
+  if (absl::Status s = DecodeDepthInto(codec, bytes, width, height, &image); !s.ok()) return s;
+  return image;
+}
+
+absl::Status DecodeColorInto(ColorCodec codec, std::string_view bytes, int width, int height,
+                             ColorImage* out) {
   if (absl::Status s = CheckSize("color", width, height); !s.ok()) return s;
-  ColorImage image{width, height, {}};
+  out->width = width;
+  out->height = height;
   const size_t raw_bytes = size_t(width) * size_t(height) * 3;
   if (codec == ColorCodec::kRawRgb8) {
     if (bytes.size() != raw_bytes) {
       return absl::InvalidArgumentError(
           absl::StrCat("color: raw RGB image has ", bytes.size(), " bytes, expected ", raw_bytes));
     }
-    image.rgb.assign(bytes.begin(), bytes.end());
-    return image;
+    out->rgb.assign(bytes.begin(), bytes.end());
+    return absl::OkStatus();
   }
   if (bytes.empty()) return absl::InvalidArgumentError("color: empty image");
   const bool png = codec == ColorCodec::kPng;
@@ -165,9 +185,16 @@ absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes,
   if (m.cols != width || m.rows != height) {
     return SizeMismatch("color", m.cols, m.rows, width, height);
   }
-  image.rgb.resize(raw_bytes);
-  cv::Mat rgb(height, width, CV_8UC3, image.rgb.data());
+  out->rgb.resize(raw_bytes);
+  cv::Mat rgb(height, width, CV_8UC3, out->rgb.data());
   cv::cvtColor(m, rgb, cv::COLOR_BGR2RGB);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes, int width,
+                                       int height) {
+  ColorImage image;
+  if (absl::Status s = DecodeColorInto(codec, bytes, width, height, &image); !s.ok()) return s;
   return image;
 }
 
@@ -179,6 +206,8 @@ absl::StatusOr<std::string> EncodeDepth(DepthCodec codec, const DepthImage& imag
   switch (codec) {
     case DepthCodec::kRawU16:
       return StoreLittleEndian(image.pixels);
+    case DepthCodec::kRvl:
+      return EncodeRvl(image.pixels.data(), image.pixels.size());
     case DepthCodec::kZstd: {
       const std::string raw = StoreLittleEndian(image.pixels);
       std::string out(ZSTD_compressBound(raw.size()), '\0');

@@ -40,6 +40,7 @@ enum class DepthCodec {
   kRawU16,  // little-endian uint16, row-major
   kPng16,   // 16-bit greyscale PNG
   kZstd,    // one zstd frame of the kRawU16 bytes
+  kRvl,     // RVL (perception/rvl_codec.h)
 };
 
 enum class ColorCodec {
@@ -57,6 +58,15 @@ absl::StatusOr<DepthImage> DecodeDepth(DepthCodec codec, std::string_view bytes,
 // converted to RGB). InvalidArgument as for DecodeDepth.
 absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes, int width,
                                        int height);
+
+// As DecodeDepth / DecodeColor, into *out, reusing its buffer: no allocation for raw,
+// zstd and RVL depth and raw colour once the buffer has grown to the size (PNG / JPEG are
+// decoded by OpenCV into its own image first, then converted into *out). On error *out is
+// unspecified.
+absl::Status DecodeDepthInto(DepthCodec codec, std::string_view bytes, int width, int height,
+                             DepthImage* out);
+absl::Status DecodeColorInto(ColorCodec codec, std::string_view bytes, int width, int height,
+                             ColorImage* out);
 
 // Encodes a depth image (for clients, tests and benchmarks). InvalidArgument if the image
 // is inconsistent; Internal if the codec fails.

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the project needs. Idempotent and quiet when everything is
 # already there. Usage: scripts/deps.sh [--bench]   (--bench adds the peer libraries that
-# only the side-by-side benchmarks need: OctoMap, OpenVDB, nanoflann, PCL).
+# only the side-by-side benchmarks need: OctoMap, OpenVDB, nanoflann, PCL, Open3D).
 set -euo pipefail
 pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
@@ -10,7 +10,7 @@ pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
   clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql
   chromium)
 if [[ "${1:-}" == "--bench" ]]; then
-  pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev)
+  pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev libopen3d-dev)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

@@ -87,6 +87,16 @@ class VoxelBatch {
   template <class Fn>
   void AddPoints(const Grid& grid, size_t count, Fn&& get, ThreadPool* pool = nullptr);
 
+  // Adds rows x cols observations (an image) row by row: fill_row(r, Point3* points,
+  // V* data, uint8_t* use) fills row r's `cols` points, with use[c] = 0 for a point to skip.
+  // The same batch as AddPoints over r * cols + c, without a call or a division per point:
+  // fill_row's loop over a row is where the compiler vectorises. With a pool, rows are
+  // split over its threads and fill_row is called concurrently for different rows. Scratch
+  // rows are kept in the batch (no allocation once they have grown to `cols`).
+  template <class RowFn>
+  void AddRows(const Grid& grid, size_t rows, size_t cols, RowFn&& fill_row,
+               ThreadPool* pool = nullptr);
+
   // REQUIRES: every component of `key` in [kMinKey, kMaxKey].
   void AddKey(const VoxelKey& key, const V& data) {
     AddPoints(Grid(1.0), 1, [&](size_t, Point3* p, V* d) {
@@ -127,6 +137,16 @@ class VoxelBatch {
   template <class Fn>
   static size_t AddRange(const Grid& grid, size_t begin, size_t end, Fn& get, Item* out,
                          size_t* rejected);
+  // One thread's row of AddRows.
+  struct RowScratch {
+    std::vector<Point3> points;
+    std::vector<V> data;
+    std::vector<uint8_t> use;
+  };
+  // AddRange for rows [begin, end) of AddRows.
+  template <class RowFn>
+  static size_t AddRowRange(const Grid& grid, size_t begin, size_t end, size_t cols,
+                            RowFn& fill_row, RowScratch& scratch, Item* out, size_t* rejected);
   // Merges the items that `sorted` (sort keys) orders into out[0..); returns how many.
   static size_t MergeSorted(const Item* items, const uint64_t* sorted, size_t count,
                             uint64_t index_mask, Item* out);
@@ -135,6 +155,7 @@ class VoxelBatch {
   size_t n_ = 0;
   std::vector<uint64_t> sort_a_, sort_b_;  // scratch, kept to avoid reallocation
   std::vector<Item> merged_;
+  std::vector<RowScratch> row_scratch_;  // one per AddRows piece, kept
   size_t rejected_ = 0;
   bool finalized_ = true;
 };
@@ -214,6 +235,97 @@ void VoxelBatch<V>::AddPoints(const Grid& grid, size_t count, Fn&& get, ThreadPo
     });
     for (size_t p = 0; p < pieces; ++p) {
       const size_t begin = p * count / pieces;
+      if (begin != added) std::move(out + begin, out + begin + written[p], out + added);
+      added += written[p];
+      rejected_ += rejected[p];
+    }
+  }
+  n_ += added;
+  if (added > 0 && n_ > 1) finalized_ = false;
+}
+
+template <Voxel V>
+template <class RowFn>
+size_t VoxelBatch<V>::AddRowRange(const Grid& grid, size_t begin, size_t end, size_t cols,
+                                  RowFn& fill_row, RowScratch& s, Item* out, size_t* rejected) {
+  // As AddRange: the open run (last, acc) is stored at out[n] after every point and n
+  // advances when the key changes; `open` is false until the first point with a key.
+  size_t n = 0;
+  bool open = false;
+  VoxelKey last;
+  V acc{};
+  for (size_t r = begin; r < end; ++r) {
+    fill_row(r, s.points.data(), s.data.data(), s.use.data());
+    for (size_t c = 0; c < cols; ++c) {
+      if (!s.use[c]) continue;
+      VoxelKey k;
+      if (!grid.ToKey(s.points[c], &k)) {
+        ++*rejected;
+        continue;
+      }
+      if (!open) {
+        open = true;
+        last = k;
+        acc = s.data[c];
+        continue;
+      }
+      const bool same = SameKey(k, last);
+      out[n] = Item{last, acc};
+      n += !same;
+      if constexpr (internal::kZeroBytesDefault<V>) {
+        std::array<uint32_t, sizeof(V) / 4> words = std::bit_cast<decltype(words)>(acc);
+        const uint32_t mask = 0u - static_cast<uint32_t>(same);
+        for (uint32_t& w : words) w &= mask;
+        acc = std::bit_cast<V>(words);
+        acc += s.data[c];
+      } else if (same) {
+        acc += s.data[c];
+      } else {
+        acc = s.data[c];
+      }
+      last = k;
+    }
+  }
+  if (!open) return 0;
+  out[n] = Item{last, std::move(acc)};
+  return n + 1;
+}
+
+template <Voxel V>
+template <class RowFn>
+void VoxelBatch<V>::AddRows(const Grid& grid, size_t rows, size_t cols, RowFn&& fill_row,
+                            ThreadPool* pool) {
+  const size_t count = rows * cols;
+  Reserve(n_ + count);
+  Item* out = storage_.data() + n_;
+  const bool parallel = pool != nullptr && pool->workers() > 0 && count >= kParallelMinPoints;
+  const size_t pieces = parallel ? static_cast<size_t>(pool->workers()) + 1 : 1;
+  if (row_scratch_.size() < pieces) row_scratch_.resize(pieces);
+  for (size_t p = 0; p < pieces; ++p) {
+    RowScratch& s = row_scratch_[p];
+    if (s.points.size() < cols) {
+      s.points.resize(cols);
+      s.data.resize(cols);
+      s.use.resize(cols);
+    }
+  }
+  size_t added = 0;
+  if (!parallel) {
+    added = AddRowRange(grid, 0, rows, cols, fill_row, row_scratch_[0], out, &rejected_);
+  } else {
+    // Piece p writes its runs at out + first row * cols (room for every point), then the
+    // pieces are moved together, as in AddPoints.
+    std::array<size_t, 64> written{}, rejected{};
+    const size_t used = std::min(pieces, written.size());
+    pool->ParallelFor(used, [&](size_t first, size_t last) {
+      for (size_t p = first; p < last; ++p) {
+        const size_t begin = p * rows / used, end = (p + 1) * rows / used;
+        written[p] = AddRowRange(grid, begin, end, cols, fill_row, row_scratch_[p],
+                                 out + begin * cols, &rejected[p]);
+      }
+    });
+    for (size_t p = 0; p < used; ++p) {
+      const size_t begin = p * rows / used * cols;
       if (begin != added) std::move(out + begin, out + begin + written[p], out + added);
       added += written[p];
       rejected_ += rejected[p];

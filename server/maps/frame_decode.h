@@ -18,6 +18,19 @@ absl::StatusOr<perception::CameraPose> DecodePose(const v1::Pose& pose, bool pre
 // depth_scale, depth and colour images. InvalidArgument naming the field otherwise.
 absl::StatusOr<perception::RgbdFrame> DecodeFrame(const v1::Frame& frame);
 
+// DecodeFrame in three steps, each into *out reusing its image buffers (the map's worker
+// decodes a frame's depth and colour at once, ahead of integration: live_map.h). DecodeFrame
+// equals Header, then Depth, then Colour, the first error winning; Depth and Colour touch
+// disjoint members of *out, so they may run concurrently.
+// Intrinsics, pose and depth_scale.
+absl::Status DecodeFrameHeader(const v1::Frame& frame, perception::RgbdFrame* out);
+// depth_encoding and depth. REQUIRES: DecodeFrameHeader(frame, out) is OK.
+absl::Status DecodeFrameDepth(const v1::Frame& frame, perception::RgbdFrame* out);
+// color_encoding and color (out->color reset when there is none). REQUIRES: as Depth.
+absl::Status DecodeFrameColor(const v1::Frame& frame, perception::RgbdFrame* out);
+// The three in order, into *out (unspecified on error).
+absl::Status DecodeFrameInto(const v1::Frame& frame, perception::RgbdFrame* out);
+
 }  // namespace skimap::server
 
 #endif  // SERVER_MAPS_FRAME_DECODE_H_

@@ -44,6 +44,31 @@ struct LiveMap::Capture {
   bool empty() const { return encoders.empty() && removed.empty() && index_chunks.empty(); }
 };
 
+// One part (depth or colour) of a frame decoded ahead: whoever claims it first (a decoder
+// thread or, when none has started it, the worker) decodes it; the worker waits for a part
+// a decoder thread claimed.
+struct DecodePart {
+  std::atomic<bool> claimed{false};
+  absl::Status status;  // written by the claimer before `done` is set
+  std::promise<void> done;
+  std::future<void> finished = done.get_future();
+  // Runs decode() if this call claims the part; false if another thread had claimed it.
+  template <class Fn>
+  bool RunIfUnclaimed(Fn&& decode) {
+    if (claimed.exchange(true, std::memory_order_acq_rel)) return false;
+    status = decode();
+    done.set_value();
+    return true;
+  }
+};
+
+struct LiveMap::DecodeJob {
+  std::shared_ptr<const v1::Frame> frame;
+  perception::RgbdFrame decoded;  // depth and colour written by their parts only
+  absl::Status header;
+  DecodePart depth, color;
+};
+
 namespace {
 
 // Tells clang's thread-safety analysis that `mu` is held exclusively, in callbacks that run
@@ -104,12 +129,64 @@ std::string LiveMap::RetentionPolicy() const {
       options_.journal_retain_bytes, " bytes (skimapd --journal_retain_mb)");
 }
 
+perception::RgbdFrame LiveMap::TakeSpareFrame() {
+  MutexLock lock(&spare_mu_);
+  if (spare_frames_.empty()) return {};
+  perception::RgbdFrame frame = std::move(spare_frames_.back());
+  spare_frames_.pop_back();
+  return frame;
+}
+
+void LiveMap::ReturnSpareFrame(perception::RgbdFrame frame) {
+  // Enough for the frames a stream keeps in flight; more are freed.
+  constexpr size_t kMaxSpareFrames = 8;
+  MutexLock lock(&spare_mu_);
+  if (spare_frames_.size() < kMaxSpareFrames) spare_frames_.push_back(std::move(frame));
+}
+
+std::shared_ptr<LiveMap::DecodeJob> LiveMap::StartDecode(std::shared_ptr<const v1::Frame> frame) {
+  auto job = std::make_shared<DecodeJob>();
+  job->frame = std::move(frame);
+  job->decoded = TakeSpareFrame();
+  job->header = DecodeFrameHeader(*job->frame, &job->decoded);
+  return job;
+}
+
+void LiveMap::StartDecodeParts(const std::shared_ptr<DecodeJob>& job) {
+  if (options_.decoder == nullptr || !job->header.ok()) return;
+  // A full decoder leaves the part to the worker (FinishDecode).
+  (void)options_.decoder->TrySubmit([job] {
+    job->depth.RunIfUnclaimed([&] { return DecodeFrameDepth(*job->frame, &job->decoded); });
+  });
+  (void)options_.decoder->TrySubmit([job] {
+    job->color.RunIfUnclaimed([&] { return DecodeFrameColor(*job->frame, &job->decoded); });
+  });
+}
+
+absl::Status LiveMap::FinishDecode(DecodeJob& job) {
+  if (!job.header.ok()) return job.header;
+  if (!job.depth.RunIfUnclaimed([&] { return DecodeFrameDepth(*job.frame, &job.decoded); })) {
+    job.depth.finished.wait();
+  }
+  if (!job.depth.status.ok()) {
+    // Colour may still be decoding into the job's frame: it must finish before the job
+    // (and its buffers) can go.
+    if (!job.color.RunIfUnclaimed([] { return absl::OkStatus(); })) job.color.finished.wait();
+    return job.depth.status;
+  }
+  if (!job.color.RunIfUnclaimed([&] { return DecodeFrameColor(*job.frame, &job.decoded); })) {
+    job.color.finished.wait();
+  }
+  return job.color.status;
+}
+
 void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done) {
   if (absl::Status s = Refused(); !s.ok()) return done(s);
   auto shared_done = std::make_shared<FrameDone>(std::move(done));
-  const bool queued = queue_.TrySubmit([this, frame, shared_done] {
+  std::shared_ptr<DecodeJob> job = options_.decoder != nullptr ? StartDecode(frame) : nullptr;
+  const bool queued = queue_.TrySubmit([this, frame, shared_done, job] {
     std::shared_ptr<const perception::RgbdFrame> decoded;
-    absl::StatusOr<v1::FrameAck> ack = IntegrateOnWorker(frame, Source::kAppend, 0, &decoded);
+    absl::StatusOr<v1::FrameAck> ack = IntegrateOnWorker(frame, Source::kAppend, 0, &decoded, job);
     if (ack.ok() && decoded != nullptr) {
       // The every-frame policy acks after recognition: the ack then carries this frame.
       auto acked = std::make_shared<v1::FrameAck>(*ack);
@@ -127,7 +204,9 @@ void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done
     (*shared_done)(absl::ResourceExhaustedError(
         absl::StrCat("map ", MapName(id_), ": write queue full (", options_.queue_capacity,
                      " pending); retry later")));
+    return;
   }
+  if (job != nullptr) StartDecodeParts(job);
 }
 
 void LiveMap::SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> request,
@@ -269,15 +348,35 @@ absl::Status LiveMap::ReplayOnWorker(const storage::JournalRecord& record) {
 
 absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
     std::shared_ptr<const v1::Frame> frame, Source source, uint64_t position,
-    std::shared_ptr<const perception::RgbdFrame>* decoded_out) {
+    std::shared_ptr<const perception::RgbdFrame>* decoded_out,
+    const std::shared_ptr<DecodeJob>& job) {
+  // The decoded images go back to the spare buffers on every return, unless recognition
+  // took them; a job's parts are settled first (a decoder thread may still write them).
+  perception::RgbdFrame inline_frame = job == nullptr ? TakeSpareFrame() : perception::RgbdFrame();
+  perception::RgbdFrame* decoded = job == nullptr ? &inline_frame : &job->decoded;
+  struct Recycle {
+    LiveMap* map;
+    DecodeJob* job;
+    perception::RgbdFrame* frame;
+    ~Recycle() {
+      if (job != nullptr) {
+        for (DecodePart* part : {&job->depth, &job->color}) {
+          if (!part->RunIfUnclaimed([] { return absl::OkStatus(); })) part->finished.wait();
+        }
+      }
+      if (frame != nullptr) map->ReturnSpareFrame(std::move(*frame));
+    }
+  } recycle{this, job.get(), decoded};
   if (absl::Status s = Refused(); !s.ok()) return s;
   const Clock::time_point start = Clock::now();
   if (index_.Contains(frame->sequence())) {
     return absl::AlreadyExistsError(
         absl::StrCat("sequence: frame ", frame->sequence(), " is already in ", MapName(id_)));
   }
-  absl::StatusOr<perception::RgbdFrame> decoded = DecodeFrame(*frame);
-  if (!decoded.ok()) return decoded.status();
+  if (absl::Status s = job != nullptr ? FinishDecode(*job) : DecodeFrameInto(*frame, decoded);
+      !s.ok()) {
+    return s;
+  }
   if (absl::Status s = ValidatePoseInMap(decoded->pose, options_.config, "pose"); !s.ok()) {
     return s;
   }
@@ -321,7 +420,8 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
   }
   SetDuration(Clock::now() - start, ack.mutable_integration_time());
   if (decoded_out != nullptr && recognition_ != nullptr) {
-    *decoded_out = std::make_shared<const perception::RgbdFrame>(*std::move(decoded));
+    *decoded_out = std::make_shared<const perception::RgbdFrame>(std::move(*decoded));
+    recycle.frame = nullptr;
   }
   return ack;
 }

@@ -10,6 +10,9 @@
 //
 // Writes (frames, pose updates) run one at a time on the map's worker thread, fed by a
 // bounded queue: a full queue answers ResourceExhausted at once instead of buffering.
+// A submitted frame's images are decoded ahead, on Options::decoder, depth and colour at
+// once, while the worker integrates the frames before it (the ingestion pipeline, issue
+// 15); what a frame's write does and answers is the same as decoding it on the worker.
 // Decoding and every stage's Stage() run outside any lock; only the stages' Apply holds the
 // snapshot lock exclusively, once per write (a pose update of any number of frames is one
 // Apply). Readers (Read, Stats) hold it shared, so every read sees a consistent snapshot
@@ -52,6 +55,7 @@
 #include "server/maps/map_state.h"
 #include "server/maps/recognition_queue.h"
 #include "server/work_queue.h"
+#include "skimap/mutex.h"
 #include "skimap/rw_lock.h"
 #include "skimap/skimap.h"
 #include "skimap/thread_pool.h"
@@ -65,7 +69,12 @@ class LiveMap {
  public:
   struct Options {
     MapConfig config;
-    ThreadPool* pool = nullptr;                     // threads for batch integration (not owned)
+    ThreadPool* pool = nullptr;  // threads for batch integration (not owned)
+    // Threads that decode a frame's depth and colour (at once, into reused buffers) as soon
+    // as it is submitted, so decoding the next frames overlaps integrating this one; the
+    // worker decodes what they have not started. Null: the worker decodes. Not owned; must
+    // outlive the map.
+    WorkQueue* decoder = nullptr;
     size_t queue_capacity = 64;                     // queued writes before ResourceExhausted
     size_t max_kept_frame_bytes = size_t{1} << 30;  // without a store: frames kept in memory
     // Journal and snapshots: every accepted frame and pose update is appended (durably)
@@ -207,11 +216,24 @@ class LiveMap {
   // read back from the journal at `position`.
   enum class Source { kAppend, kReplay };
   struct Capture;
+  // A frame decoded ahead of the worker (live_map.cc).
+  struct DecodeJob;
+  // Starts decoding `frame` ahead: the header at once, depth and colour on the decoder.
+  std::shared_ptr<DecodeJob> StartDecode(std::shared_ptr<const v1::Frame> frame);
+  void StartDecodeParts(const std::shared_ptr<DecodeJob>& job);
+  // Worker: the decoded frame of `job` (decoding what the decoder has not started), or the
+  // first error of header, depth, colour.
+  absl::Status FinishDecode(DecodeJob& job);
+  // Image buffers of integrated frames, reused by the next decodes.
+  perception::RgbdFrame TakeSpareFrame();
+  void ReturnSpareFrame(perception::RgbdFrame frame);
   // Worker thread only.
   // `decoded_out` (may be null): the decoded frame, for recognition (maps with it only).
+  // `job` (may be null: decoded here) is the frame's decode started by SubmitFrame.
   absl::StatusOr<v1::FrameAck> IntegrateOnWorker(
       std::shared_ptr<const v1::Frame> frame, Source source, uint64_t position,
-      std::shared_ptr<const perception::RgbdFrame>* decoded_out = nullptr);
+      std::shared_ptr<const perception::RgbdFrame>* decoded_out = nullptr,
+      const std::shared_ptr<DecodeJob>& job = nullptr);
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(const v1::UpdatePosesRequest& request,
                                                               Source source, uint64_t position);
   absl::StatusOr<std::shared_ptr<const v1::Frame>> FrameOf(const FrameIndex::Entry& entry,
@@ -285,6 +307,9 @@ class LiveMap {
   FrameIndex index_;
   uint64_t arrivals_ = 0;  // arrival order of frames in maps without a store
   std::vector<std::unique_ptr<FrameStage>> stages_;  // in order
+
+  Mutex spare_mu_;
+  std::vector<perception::RgbdFrame> spare_frames_ ABSL_GUARDED_BY(spare_mu_);
 
   std::mutex snapshot_run_mu_;  // one Snapshot() at a time
   std::atomic<int> snapshot_holds_{0};

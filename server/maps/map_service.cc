@@ -1,6 +1,7 @@
 // MapService: maps and frames. Queries are in map_service_queries.cc.
 #include "server/maps/map_service.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <utility>
@@ -12,9 +13,11 @@
 namespace skimap::server {
 namespace {
 
-MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* pool) {
+MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* pool,
+                                     WorkQueue* decoder) {
   MapRegistry::Options r;
   r.map_defaults.pool = pool;
+  r.map_defaults.decoder = decoder;
   r.map_defaults.queue_capacity = o.queue_capacity;
   r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
   r.map_defaults.store = o.store;
@@ -30,7 +33,9 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
 MapService::MapService(const Options& options)
     : options_(options),
       pool_(std::make_unique<ThreadPool>(options.worker_threads)),
-      registry_(RegistryOptions(options, pool_.get())) {
+      decoder_(std::make_unique<WorkQueue>(WorkQueue::Options{
+          .capacity = kDecoderCapacity, .threads = std::max(2, options.worker_threads)})),
+      registry_(RegistryOptions(options, pool_.get(), decoder_.get())) {
   if (options_.ownership != nullptr) {
     options_.ownership->OnLost([this](const std::string& id) { registry_.Unload(id); });
   }

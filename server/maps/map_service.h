@@ -22,6 +22,7 @@
 #include "server/maps/map_importer.h"
 #include "server/maps/map_ownership.h"
 #include "server/maps/map_registry.h"
+#include "server/work_queue.h"
 #include "skimap/mutex.h"
 #include "skimap/thread_pool.h"
 #include "skimap/v1/frames.pb.h"
@@ -178,6 +179,10 @@ class MapService {
 
   const Options options_;
   std::unique_ptr<ThreadPool> pool_;
+  // Decodes frames' images ahead of the map workers (LiveMap::Options::decoder); declared
+  // before the registry, so it outlives every map. A full queue makes a map decode inline.
+  static constexpr size_t kDecoderCapacity = 256;
+  std::unique_ptr<WorkQueue> decoder_;
   mutable MapRegistry registry_;  // mutable: a const query may load a map
 
   Mutex maintenance_mu_;

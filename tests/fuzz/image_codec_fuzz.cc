@@ -2,7 +2,7 @@
 // header reader (image_header.h).
 //
 // Input: u8 codec (0-2 depth raw / PNG16 / zstd, 3-5 colour raw / PNG / JPEG, 6-7 the PNG /
-// JPEG header alone), u16 width, u16 height (each taken modulo 512, plus 1), then the
+// JPEG header alone, 8 depth RVL), u16 width, u16 height (each taken modulo 512, plus 1), then the
 // image bytes. A decoded image must have the asked size; a lossless codec must give the
 // same image back after encoding it again.
 #include <cstdint>
@@ -51,7 +51,7 @@ void Color(ColorCodec codec, std::string_view bytes, int width, int height) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace skimap::fuzz;
   FuzzInput in(data, size);
-  const int which = in.U8() % 8;
+  const int which = in.U8() % 9;
   const int width = in.U16() % 512 + 1;
   const int height = in.U16() % 512 + 1;
   const std::string_view bytes = in.Rest();
@@ -73,6 +73,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       break;
     case 5:
       Color(ColorCodec::kJpeg, bytes, width, height);
+      break;
+    case 8:
+      Depth(DepthCodec::kRvl, bytes, width, height);
       break;
     default: {
       const auto format = which == 6 ? skimap::perception::ImageFormat::kPng

@@ -64,6 +64,13 @@ void ImageSeeds() {
     Write("image_codec", "color" + std::to_string(i),
           Byte(3 + i) + size + *perception::EncodeColor(color[i], Color()));
   }
+  // RVL with runs of zeros (holes) between the values.
+  perception::DepthImage holes = Depth();
+  for (size_t i = 0; i < holes.pixels.size(); ++i) {
+    if (i % 7 < 2) holes.pixels[i] = 0;
+  }
+  Write("image_codec", "depth_rvl",
+        Byte(8) + size + *perception::EncodeDepth(perception::DepthCodec::kRvl, holes));
   Write("image_codec", "png_header",
         Byte(6) + size + *perception::EncodeColor(perception::ColorCodec::kPng, Color()));
   Write("image_codec", "jpeg_header",
@@ -86,9 +93,10 @@ v1::Frame Frame(const std::string& map, uint64_t sequence, v1::DepthEncoding de,
   k.set_cy(6);
   f.set_depth_scale(0.001);
   f.set_depth_encoding(de);
-  const perception::DepthCodec dc = de == v1::DEPTH_ENCODING_PNG16 ? perception::DepthCodec::kPng16
-                                    : de == v1::DEPTH_ENCODING_ZSTD
-                                        ? perception::DepthCodec::kZstd
+  const perception::DepthCodec dc = de == v1::DEPTH_ENCODING_PNG16  ? perception::DepthCodec::kPng16
+                                    : de == v1::DEPTH_ENCODING_ZSTD ? perception::DepthCodec::kZstd
+                                    : de == v1::DEPTH_ENCODING_RVL
+                                        ? perception::DepthCodec::kRvl
                                         : perception::DepthCodec::kRawU16;
   f.set_depth(*perception::EncodeDepth(dc, Depth()));
   f.set_color_encoding(ce);
@@ -104,10 +112,10 @@ v1::Frame Frame(const std::string& map, uint64_t sequence, v1::DepthEncoding de,
 
 void FrameSeeds() {
   const v1::DepthEncoding depth[] = {v1::DEPTH_ENCODING_RAW_U16, v1::DEPTH_ENCODING_PNG16,
-                                     v1::DEPTH_ENCODING_ZSTD};
+                                     v1::DEPTH_ENCODING_ZSTD, v1::DEPTH_ENCODING_RVL};
   const v1::ColorEncoding color[] = {v1::COLOR_ENCODING_NONE, v1::COLOR_ENCODING_RAW_RGB8,
                                      v1::COLOR_ENCODING_PNG, v1::COLOR_ENCODING_JPEG};
-  for (int d = 0; d < 3; ++d) {
+  for (int d = 0; d < 4; ++d) {
     for (int c = 0; c < 4; ++c) {
       Write("frame_decode", "frame_d" + std::to_string(d) + "_c" + std::to_string(c),
             Frame("maps/m", 1, depth[d], color[c]).SerializeAsString());

@@ -7,6 +7,7 @@
 #include "perception/image_codec.h"
 #include "perception/rgbd_frame.h"
 #include "skimap/skimap.h"
+#include "skimap/thread_pool.h"
 
 namespace skimap::perception {
 namespace {
@@ -19,7 +20,8 @@ DepthImage Ramp(int w, int h) {
 
 TEST(ImageCodecTest, DepthRoundTripsThroughEveryCodec) {
   const DepthImage d = Ramp(33, 17);
-  for (DepthCodec codec : {DepthCodec::kRawU16, DepthCodec::kPng16, DepthCodec::kZstd}) {
+  for (DepthCodec codec :
+       {DepthCodec::kRawU16, DepthCodec::kPng16, DepthCodec::kZstd, DepthCodec::kRvl}) {
     absl::StatusOr<std::string> bytes = EncodeDepth(codec, d);
     ASSERT_TRUE(bytes.ok()) << bytes.status();
     absl::StatusOr<DepthImage> back = DecodeDepth(codec, *bytes, 33, 17);
@@ -77,6 +79,72 @@ TEST(FrameIntegratorTest, FrontoParallelPlaneLandsAtItsDepth) {
   IntegrationOptions strided;
   strided.pixel_stride = 2;
   EXPECT_EQ(BuildFrameBatch(f, grid, strided, &batch).points, 99u);
+}
+
+// The row-wise back-projection (VoxelBatch::AddRows) gives exactly the batch of the
+// per-pixel formulation it replaced (one Eigen expression per pixel through AddPoints):
+// same keys, same sums, same counts, with and without a pool, at every stride. Journal
+// replay and UpdatePoses rely on this: a frame rebuilt later must subtract exactly.
+TEST(FrameIntegratorTest, RowWiseBatchEqualsThePerPixelFormulation) {
+  RgbdFrame f;
+  f.camera = {525, 530, 319.5, 239.5, 641, 479};  // odd sizes on purpose
+  f.depth = {641, 479, std::vector<uint16_t>(641 * 479)};
+  f.color = ColorImage{641, 479, std::vector<uint8_t>(641 * 479 * 3)};
+  uint32_t seed = 15;
+  auto next = [&] { return seed = seed * 1664525u + 1013904223u; };
+  for (uint16_t& d : f.depth.pixels) d = next() % 5 == 0 ? 0 : uint16_t(200 + next() % 6000);
+  for (uint8_t& c : f.color->rgb) c = uint8_t(next() >> 24);
+  f.depth_scale = 0.001;
+  f.pose.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+  f.pose.translation = {1.25, -3.5, 0.75};
+  ASSERT_TRUE(ValidateFrame(f).ok());
+  ThreadPool pool(2);
+  for (const double resolution : {0.01, 0.05}) {
+    for (const int stride : {1, 3}) {
+      const Grid grid(resolution);
+      IntegrationOptions options;
+      options.pixel_stride = stride;
+      // The reference: the per-pixel formulation.
+      const int cols = (641 + stride - 1) / stride, rows = (479 + stride - 1) / stride;
+      const Eigen::Matrix3d rot = f.pose.rotation.toRotationMatrix();
+      VoxelBatch<RGBWeightedVoxel> reference;
+      reference.AddPoints(
+          grid, size_t(rows) * cols, [&](size_t i, Point3* p, RGBWeightedVoxel* obs) {
+            const size_t r = i / cols, c = i % cols;
+            const size_t pixel = r * stride * 641 + c * stride;
+            const uint16_t d = f.depth.pixels[pixel];
+            const double z = d * f.depth_scale;
+            if (d == 0 || z < options.min_depth || z > options.max_depth) return false;
+            const Eigen::Vector3d col_term = rot.col(0) * ((c * stride - 319.5) / 525.0);
+            const Eigen::Vector3d row_base =
+                rot * Eigen::Vector3d(0, (r * stride - 239.5) / 530.0, 1);
+            const Eigen::Vector3d w = z * (row_base + col_term) + f.pose.translation;
+            *p = {w.x(), w.y(), w.z()};
+            const uint8_t* rgb = &f.color->rgb[3 * pixel];
+            *obs = RGBWeightedVoxel(rgb[0], rgb[1], rgb[2], 1.0f);
+            return true;
+          });
+      reference.Finalize();
+      for (ThreadPool* p : {static_cast<ThreadPool*>(nullptr), &pool}) {
+        VoxelBatch<RGBWeightedVoxel> batch;
+        const IntegrationStats stats = BuildFrameBatch(f, grid, options, &batch, p);
+        ASSERT_EQ(batch.size(), reference.size()) << resolution << " " << stride;
+        size_t weight = 0;
+        for (size_t i = 0; i < batch.size(); ++i) {
+          const auto& a = batch.items()[i];
+          const auto& b = reference.items()[i];
+          ASSERT_TRUE(SameKey(a.key, b.key)) << i;
+          ASSERT_EQ(a.data.weight, b.data.weight) << i;
+          ASSERT_EQ(a.data.r, b.data.r) << i;
+          ASSERT_EQ(a.data.g, b.data.g) << i;
+          ASSERT_EQ(a.data.b, b.data.b) << i;
+          weight += size_t(a.data.weight);
+        }
+        EXPECT_EQ(stats.points, weight);
+      }
+    }
+  }
 }
 
 TEST(RgbdFrameTest, ValidationNamesTheField) {

@@ -1,0 +1,51 @@
+#include "client/frame_depth.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "perception/rvl_codec.h"
+
+namespace skimap::client {
+
+absl::Status SetFrameDepth(const uint16_t* pixels, int width, int height, v1::Frame* frame,
+                           v1::DepthEncoding encoding) {
+  if (width < 1 || height < 1 || width > 8192 || height > 8192) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("depth: image size ", width, "x", height, " outside 1..8192"));
+  }
+  const size_t count = size_t(width) * size_t(height);
+  std::string bytes;
+  switch (encoding) {
+    case v1::DEPTH_ENCODING_RVL:
+      bytes = perception::EncodeRvl(pixels, count);
+      break;
+    case v1::DEPTH_ENCODING_RAW_U16:
+      bytes.resize(count * 2);
+      for (size_t i = 0; i < count; ++i) {
+        bytes[2 * i] = static_cast<char>(pixels[i] & 0xff);
+        bytes[2 * i + 1] = static_cast<char>(pixels[i] >> 8);
+      }
+      break;
+    case v1::DEPTH_ENCODING_PNG16: {
+      const cv::Mat m(height, width, CV_16UC1, const_cast<uint16_t*>(pixels));
+      std::vector<uint8_t> png;
+      if (!cv::imencode(".png", m, png, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
+        return absl::InternalError("depth: PNG encoding failed");
+      }
+      bytes.assign(png.begin(), png.end());
+      break;
+    }
+    default:
+      return absl::InvalidArgumentError(
+          absl::StrCat("depth_encoding: ", v1::DepthEncoding_Name(encoding),
+                       " is not written by the client library (RVL, PNG16 or RAW_U16)"));
+  }
+  frame->set_depth_encoding(encoding);
+  frame->set_depth(std::move(bytes));
+  return absl::OkStatus();
+}
+
+}  // namespace skimap::client

@@ -1,0 +1,31 @@
+// Depth images onto API frames, as a client sends them: RVL by default (the fastest
+// lossless codec both to encode here and to decode on the server: docs/api.md, "Depth and
+// colour encodings"), or 16-bit PNG / raw uint16 when asked.
+//
+//   v1::Frame frame;  // intrinsics, pose, depth_scale set by the caller
+//   absl::Status s = SetFrameDepth(pixels.data(), 640, 480, &frame);  // RVL
+//
+// Thread safety: pure functions of their arguments.
+#ifndef CLIENT_FRAME_DEPTH_H_
+#define CLIENT_FRAME_DEPTH_H_
+
+#include <cstdint>
+
+#include "absl/status/status.h"
+#include "skimap/v1/frames.pb.h"
+
+namespace skimap::client {
+
+// The depth encoding clients send unless told otherwise.
+inline constexpr v1::DepthEncoding kDefaultDepthEncoding = v1::DEPTH_ENCODING_RVL;
+
+// Encodes width x height depth pixels (row-major, sensor units, 0 = no measurement) with
+// `encoding` into frame->depth and sets frame->depth_encoding. InvalidArgument for a size
+// outside 1..8192 or an encoding this library does not write (ZSTD: encode it yourself);
+// Internal if PNG encoding fails. Leaves the frame unchanged on error.
+absl::Status SetFrameDepth(const uint16_t* pixels, int width, int height, v1::Frame* frame,
+                           v1::DepthEncoding encoding = kDefaultDepthEncoding);
+
+}  // namespace skimap::client
+
+#endif  // CLIENT_FRAME_DEPTH_H_
