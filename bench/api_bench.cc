@@ -21,7 +21,6 @@
 // (the same message for JSON; the same size and cells for PGM), before and during timing.
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/message_differencer.h>
-#include <httplib.h>
 
 #include <algorithm>
 #include <atomic>
@@ -41,6 +40,10 @@
 #include "absl/strings/str_format.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/server/synthetic_scene.h"
+
+// After Eigen (synthetic_scene.h): httplib pulls <resolv.h>, whose `_res` macro breaks
+// Eigen's headers.
+#include <httplib.h>
 
 ABSL_FLAG(int, poses, 32, "frames streamed into the map (one per pose on the circle)");
 ABSL_FLAG(int, requests, 40, "sequential requests per protocol and request (latency)");

@@ -154,6 +154,7 @@ const loaders = {
     if (lod) document.body.dataset.voxelsShown = String(lod.shown);
     const recognition = Boolean(map.options?.recognition?.enabled);
     $('labels-toggle').hidden = !recognition;
+    $('fit-instances').hidden = !recognition;
     if (recognition) {
       const instances = await view3d.loadInstances(map, objectExtent, $('instances'));
       document.body.dataset.instances = instances ? String(instances.length) : 'none';
@@ -280,6 +281,7 @@ $('show-instances').addEventListener('change', () => {
   view3d.instances.visible = $('show-instances').checked;
   view3d.requestRender();
 });
+$('fit-instances').addEventListener('click', () => view3d.frameInstances());
 function showLabels(on) {
   view3d.showLabels(on);
   $('labels-legend').hidden = !on;

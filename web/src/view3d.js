@@ -96,15 +96,30 @@ export class View3D {
     const box = new THREE.Box3(new THREE.Vector3(b.min.x, b.min.y, b.min.z),
                                new THREE.Vector3(b.max.x, b.max.y, b.max.z));
     if (this.trajectoryBox) box.union(this.trajectoryBox);  // the cameras in view too
+    this.fitBox(box, 0.5);
+  }
+
+  // Looks at `box` (a THREE.Box3) from above and to the side, close enough to fill the view
+  // with it (at least `minSize` metres across).
+  fitBox(box, minSize) {
     const { min, max } = box;
     const centre = min.clone().add(max).multiplyScalar(0.5);
-    const size = Math.max(max.distanceTo(min), 0.5);
+    const size = Math.max(max.distanceTo(min), minSize);
     this.controls.target.copy(centre);
     this.camera.position.copy(centre).add(new THREE.Vector3(0.35, -0.55, 0.45).multiplyScalar(size));
     this.camera.near = size / 1000;
     this.camera.far = size * 20;
     this.camera.updateProjectionMatrix();
     this.controls.update();
+    this.requestRender();
+  }
+
+  // Fits the camera to the instances' boxes; false when there are none.
+  frameInstances() {
+    const box = new THREE.Box3().setFromObject(this.instances);
+    if (box.isEmpty()) return false;
+    this.fitBox(box, 0.3);
+    return true;
   }
 
   // (Re)loads the voxels of `map` (a v1.Map); reports the level of detail with onLod.
@@ -163,6 +178,12 @@ export class View3D {
       this.voxels.setColorAt(i, c);
     });
     if (this.voxels.instanceColor) this.voxels.instanceColor.needsUpdate = true;
+    // Under the labels the voxels are see-through: the labels lie on surfaces inside them.
+    const material = this.voxels.material;
+    material.transparent = grey;
+    material.opacity = grey ? 0.25 : 1;
+    material.depthWrite = !grey;
+    material.needsUpdate = true;
   }
 
   // (Re)loads the Labels volume of `map` (GET /v1/maps/{map}/labels, at most 2 x budget
@@ -220,7 +241,9 @@ export class View3D {
       const size = extent.max.map((v, i) => v - extent.min[i]);
       const box = new THREE.LineSegments(
         new THREE.EdgesGeometry(new THREE.BoxGeometry(...size)),
-        new THREE.LineBasicMaterial({ color: 0xffcc33 }));
+        // Drawn over the voxels: an object inside the map's surface is still seen.
+        new THREE.LineBasicMaterial({ color: 0xffcc33, depthTest: false, transparent: true }));
+      box.renderOrder = 2;
       box.position.set(...extent.max.map((v, i) => (v + extent.min[i]) / 2));
       const holder = new THREE.Group();
       const p = inst.pose || {};

@@ -103,11 +103,18 @@ try {
   const errors = [];
   page.on('pageerror', (e) => errors.push(String(e)));
   page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
-  await page.goto(`${base}/#map=scene&tab=view3d`);
+  // A budget of 30 000 boxes: the map's ~100 000 voxels come at level 1 (JSON pages are the
+  // slow part on a loaded machine); the instances and labels are drawn whatever the level.
+  await page.goto(`${base}/?budget=30000#map=scene&tab=view3d`);
   await page.waitForSelector('body[data-ready="1"]', { timeout: 30000 });
 
   // The instances: listed with their names and scores, drawn as boxes.
-  await page.waitForFunction(() => /^\d+$/.test(document.body.dataset.instances || ''), null, { timeout: 60000 });
+  await page.waitForFunction(() => /^\d+$/.test(document.body.dataset.instances || ''), null, { timeout: 180000 })
+    .catch(async (error) => {
+      await page.screenshot({ path: join(args.out, 'viewer-instances-timeout.png') });
+      throw new Error(`${error.message}; status "${await page.textContent('#status')}", ` +
+        `body ${JSON.stringify(await page.evaluate(() => ({ ...document.body.dataset })))}, errors ${errors.join('; ')}`);
+    });
   const listed = await page.$$eval('#instances li', (items) => items.map((li) => ({
     object: li.dataset.object, score: Number(li.dataset.score), text: li.textContent })));
   check(listed.length === instances.length, `the viewer lists ${listed.length} instances (server: ${instances.length})`);
@@ -118,6 +125,7 @@ try {
   }
   check(await page.evaluate(() => window.skimapViewer.view3d.instances.children.length) === instances.length,
         'one box per instance in the scene');
+  await page.click('#fit-instances');
   const boxes = await drawnWith(page, ['instances']);
   check(boxes.drawn > 500, `the instance boxes and their labels drew ${boxes.drawn} pixels`);
   await page.waitForTimeout(300);
@@ -125,7 +133,7 @@ try {
 
   // The Labels volume coloured by object.
   await page.check('#show-labels');
-  await page.waitForSelector('body[data-labels-shown]', { timeout: 60000 });
+  await page.waitForSelector('body[data-labels-shown]', { timeout: 120000 });
   check(Number(await page.getAttribute('body', 'data-labels-shown')) === labels.length,
         `the viewer draws ${await page.getAttribute('body', 'data-labels-shown')} label voxels (server: ${labels.length})`);
   const legend = await page.$$eval('#labels-legend li', (items) => items.map((li) => ({
