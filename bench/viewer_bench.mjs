@@ -3,7 +3,7 @@
 // test; a markdown table on stdout, progress on stderr:
 //
 //   node bench/viewer_bench.mjs --skimapd=build/release/server/skimapd --web_root=web/dist \
-//     [--sizes=1000000,10000000] [--seconds=5] [--budget=200000] [--out=DIR]
+//     [--sizes=1000000,10000000] [--seconds=5] [--budget=200000] [--timeout_s=1800] [--out=DIR]
 //
 // (bench/viewer_bench.sh builds skimapd and the viewer, then runs this.)
 //
@@ -92,7 +92,7 @@ async function measure(browser, base, map) {
   page.on('pageerror', (e) => errors.push(String(e)));
   const budget = args.budget ? `?budget=${args.budget}` : '';
   await page.goto(`${base}/${budget}#map=${id}&tab=view3d`);
-  await page.waitForFunction(() => window.skimapViewer?.view3d.firstVoxelRender !== undefined, null, { timeout: 600000 });
+  await page.waitForFunction(() => window.skimapViewer?.view3d.firstVoxelRender !== undefined, null, { timeout: Number(args.timeout_s || 1800) * 1000 });
   const first = await page.evaluate(() => ({
     firstRender: window.skimapViewer.view3d.firstVoxelRender,
     lod: document.getElementById('lod').textContent,
