@@ -158,6 +158,12 @@ ServerUnaryReactor* GrpcMapService::GetInstance(CallbackServerContext* ctx,
   return Reply(ctx, core_->GetInstance(*request), response);
 }
 
+ServerUnaryReactor* GrpcMapService::GetLabelVoxels(CallbackServerContext* ctx,
+                                                   const v1::GetLabelVoxelsRequest* request,
+                                                   v1::GetLabelVoxelsResponse* response) {
+  return Reply(ctx, core_->GetLabelVoxels(*request), response);
+}
+
 grpc::ServerWriteReactor<v1::InstanceEvent>* GrpcMapService::WatchInstances(
     CallbackServerContext* ctx, const v1::WatchInstancesRequest* request) {
   return new InstanceWatchReactor(core_, *request);

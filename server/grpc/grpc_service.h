@@ -6,8 +6,8 @@
 // StreamFrames (bidi, FrameStreamReactor); StreamVoxels (server stream of GetVoxels pages);
 // ExportMap (server stream) and ImportMap (client stream) of export file pieces
 // (map_transfer_reactors.h), whose store work runs on the adapter's own threads;
-// ListInstances, GetInstance (unary) and WatchInstances (server stream of events,
-// instance_watch_reactor.h).
+// ListInstances, GetInstance, GetLabelVoxels (unary) and WatchInstances (server stream of
+// events, instance_watch_reactor.h).
 //
 // Thread safety: safe for concurrent calls; no state but the core pointer and the threads
 // for blocking steps.
@@ -84,6 +84,9 @@ class GrpcMapService final : public v1::MapService::CallbackService {
   grpc::ServerUnaryReactor* GetInstance(grpc::CallbackServerContext* ctx,
                                         const v1::GetInstanceRequest* request,
                                         v1::Instance* response) override;
+  grpc::ServerUnaryReactor* GetLabelVoxels(grpc::CallbackServerContext* ctx,
+                                           const v1::GetLabelVoxelsRequest* request,
+                                           v1::GetLabelVoxelsResponse* response) override;
   grpc::ServerWriteReactor<v1::InstanceEvent>* WatchInstances(
       grpc::CallbackServerContext* ctx, const v1::WatchInstancesRequest* request) override;
 

@@ -223,6 +223,10 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, 
                         Body::kNone, {{"name", "maps/{map}/instances/{id}"}},
                         [&maps](const auto& r) { return maps.GetInstance(r); })});
   routes.push_back(
+      {"GET", "/v1/maps/{map}/labels",
+       Unary<v1::GetLabelVoxelsRequest, v1::GetLabelVoxelsResponse>(
+           Body::kNone, kMap, [&maps](const auto& r) { return maps.GetLabelVoxels(r); })});
+  routes.push_back(
       {"GET", "/v1/objects",
        Unary<v1::ListObjectsRequest, v1::ListObjectsResponse>(
            Body::kNone, {}, [&objects](const auto& r) { return objects.ListObjects(r); })});

@@ -19,6 +19,7 @@
 //   POST   /v1/maps/{map}:updatePoses        UpdatePoses       body UpdatePosesRequest
 //   GET    /v1/maps/{map}/instances          ListInstances     ?box|sphere&objIds&minScore&...
 //   GET    /v1/maps/{map}/instances/{id}     GetInstance
+//   GET    /v1/maps/{map}/labels             GetLabelVoxels    ?box&pageSize&pageToken&minCount
 //   GET    /v1/objects                       ListObjects       ?pageSize&pageToken
 //   GET    /v1/objects/{object}              GetObject         ?view
 //

@@ -122,6 +122,12 @@ class MapService {
   absl::StatusOr<v1::ListInstancesResponse> ListInstances(
       const v1::ListInstancesRequest& request) const;
   absl::StatusOr<v1::Instance> GetInstance(const v1::GetInstanceRequest& request) const;
+  // The Labels volume (map_service_labels.cc): one page of its voxels in key order, each
+  // with its heaviest label and that class's object. FailedPrecondition for a map without
+  // recognition; InvalidArgument naming the field (box, page_size, page_token). Page
+  // tokens are bound to the map and the query (box, min_count), like GetVoxels'.
+  absl::StatusOr<v1::GetLabelVoxelsResponse> GetLabelVoxels(
+      const v1::GetLabelVoxelsRequest& request) const;
   // WatchInstances: a watch of one map's instance events. Next() gives the events after the
   // last one it gave (at most `max`), starting after request.after_sequence; `wake` runs
   // (on a map thread; it must only schedule work) when new events may be there. Errors:

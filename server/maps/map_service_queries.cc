@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/maps/free_space_grid.h"
 #include "server/maps/map_service.h"
+#include "server/maps/query_box.h"
 #include "server/page_token.h"
 #include "skimap/encoding.h"
 #include "skimap/map_queries.h"
@@ -80,25 +81,6 @@ void FillGeometry(const RasterGeometry& g, uint64_t frames, Raster* out) {
   out->set_origin_x(g.origin_x);
   out->set_origin_y(g.origin_y);
   out->set_frames(frames);
-}
-
-// Key box of the voxels whose centres lie in `box` (all keys when absent).
-absl::StatusOr<KeyBox> ToKeyBox(const Grid& grid, const v1::GetVoxelsRequest& request) {
-  KeyBox keys;
-  if (!request.has_box()) return keys;
-  const v1::Box3& b = request.box();
-  const double lo[3] = {b.min().x(), b.min().y(), b.min().z()};
-  const double hi[3] = {b.max().x(), b.max().y(), b.max().z()};
-  const double origin[3] = {grid.origin().x, grid.origin().y, grid.origin().z};
-  int32_t* mins[3] = {&keys.min.x, &keys.min.y, &keys.min.z};
-  int32_t* maxs[3] = {&keys.max.x, &keys.max.y, &keys.max.z};
-  for (int a = 0; a < 3; ++a) {
-    if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || lo[a] > hi[a]) {
-      return absl::InvalidArgumentError("box must be finite with min <= max");
-    }
-    grid.CenterRange(lo[a], hi[a], origin[a], mins[a], maxs[a]);
-  }
-  return keys;
 }
 
 // What a GetVoxels page depends on but its position: the map (this incarnation of it), the
@@ -264,7 +246,7 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
     const Volume& volume = state.rgb;
     const Grid& grid = volume.grid();
     out.set_resolution(grid.resolution());
-    absl::StatusOr<KeyBox> box = ToKeyBox(grid, request);
+    absl::StatusOr<KeyBox> box = QueryKeyBox(grid, request.has_box(), request.box());
     if (!box.ok()) return box.status();
     const std::optional<KeyBox> bounds = volume.Bounds();
     if (!bounds || box->empty()) return absl::OkStatus();

@@ -63,6 +63,36 @@ export async function listInstances(id) {
   }
 }
 
+// The Labels volume of a map with recognition (GET /v1/maps/{map}/labels), page after
+// page, stopping at `cap` voxels: {count, resolution, truncated}.
+export async function getLabelVoxels(id, cap, onPage) {
+  let token = '';
+  let count = 0;
+  let resolution = 0;
+  do {
+    const query = `pageSize=100000${token ? `&pageToken=${encodeURIComponent(token)}` : ''}`;
+    const page = await getJson(`/v1/maps/${id}/labels?${query}`);
+    resolution = page.resolution;
+    const voxels = page.voxels || [];
+    count += voxels.length;
+    onPage(voxels);
+    token = page.nextPageToken || '';
+  } while (token && count < cap);
+  return { count, resolution, truncated: Boolean(token) };
+}
+
+// The object database's objects (GET /v1/objects), every page.
+export async function listObjects() {
+  const objects = [];
+  let token = '';
+  do {
+    const page = await getJson(`/v1/objects?pageSize=1000${token ? `&pageToken=${encodeURIComponent(token)}` : ''}`);
+    objects.push(...(page.objects || []));
+    token = page.nextPageToken || '';
+  } while (token);
+  return objects;
+}
+
 // Live updates: calls onMap(map) for each `event: map`; returns the EventSource.
 export function watchMap(id, onMap, onState) {
   const source = new EventSource(`/v1/maps/${id}/events`);

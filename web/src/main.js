@@ -4,7 +4,7 @@
 import './style.css';
 import * as api from './api.js';
 import { count, bytes } from './format.js';
-import { View3D, DEFAULT_BUDGET } from './view3d.js';
+import { View3D, DEFAULT_BUDGET, objectColour } from './view3d.js';
 import { RasterView, drawGrid, drawHeights } from './raster.js';
 
 const $ = (id) => document.getElementById(id);
@@ -110,6 +110,40 @@ function objectExtent(object) {
   return extents.get(object);
 }
 
+// Object names by obj_id (GET /v1/objects), read again when an unknown id shows up.
+let objectNames = new Map();
+async function objectName(objId) {
+  if (!objectNames.has(objId)) {
+    objectNames = new Map((await api.listObjects()).map((o) => [o.objId, o.displayName || o.name]));
+  }
+  return objectNames.get(objId) || (objId ? `object ${objId}` : 'unknown class');
+}
+
+// The Labels volume of `map` in the 3D view, and its legend (one line per object: colour,
+// name, voxels).
+async function loadLabels(map) {
+  const labels = await view3d.loadLabels(map);
+  if (!labels) return;
+  const legend = $('labels-legend');
+  legend.replaceChildren();
+  const entries = Object.entries(labels.byObject).map(([obj, n]) => [Number(obj), n]).sort((a, b) => a[0] - b[0]);
+  for (const [obj, n] of entries) {
+    const item = document.createElement('li');
+    item.dataset.objId = String(obj);
+    item.dataset.voxels = String(n);
+    item.dataset.colour = objectColour(obj);
+    const swatch = document.createElement('span');
+    swatch.className = 'swatch';
+    swatch.style.background = objectColour(obj);
+    item.append(swatch, `${await objectName(obj)}: ${count(n)} label voxels`);
+    legend.appendChild(item);
+  }
+  const title = document.createElement('li');
+  title.textContent = `labels volume, ${(labels.resolution * 1000).toFixed(0)} mm voxels${labels.truncated ? ' (truncated)' : ''}`;
+  legend.prepend(title);
+  document.body.dataset.labelsShown = String(labels.shown);
+}
+
 const loaders = {
   async view3d(map) {
     document.body.dataset.trajectory = String(await view3d.loadTrajectory(map));
@@ -118,13 +152,19 @@ const loaders = {
         ` (${(l.resolution * 100).toFixed(1)} cm boxes${l.truncated ? ', truncated' : ''})`;
     });
     if (lod) document.body.dataset.voxelsShown = String(lod.shown);
-    if (map.options?.recognition?.enabled) {
+    const recognition = Boolean(map.options?.recognition?.enabled);
+    $('labels-toggle').hidden = !recognition;
+    $('fit-instances').hidden = !recognition;
+    if (recognition) {
       const instances = await view3d.loadInstances(map, objectExtent, $('instances'));
       document.body.dataset.instances = instances ? String(instances.length) : 'none';
+      if ($('show-labels').checked) await loadLabels(map);
     } else {
       $('instances').replaceChildren();
       view3d.instances.clear();
       document.body.dataset.instances = 'none';
+      $('show-labels').checked = false;
+      showLabels(false);
     }
   },
   async grid(map) {
@@ -240,6 +280,24 @@ $('show-trajectory').addEventListener('change', () => {
 $('show-instances').addEventListener('change', () => {
   view3d.instances.visible = $('show-instances').checked;
   view3d.requestRender();
+});
+$('fit-instances').addEventListener('click', () => view3d.frameInstances());
+function showLabels(on) {
+  view3d.showLabels(on);
+  $('labels-legend').hidden = !on;
+  if (!on) delete document.body.dataset.labelsShown;
+}
+$('show-labels').addEventListener('change', async () => {
+  const on = $('show-labels').checked;
+  showLabels(on);
+  const map = state.maps.get(state.selected);
+  if (on && map) {
+    try {
+      await loadLabels(map);
+    } catch (error) {
+      setStatus(`labels: ${error.message}`);
+    }
+  }
 });
 window.addEventListener('resize', () => { gridView.fit(); heightView.fit(); });
 

@@ -1,6 +1,8 @@
 // The 3D tab: the map's RGB volume as instanced boxes (one THREE.InstancedMesh, one box per
 // voxel, coloured by the voxel), an orbit camera, the instances found by recognition as
-// oriented boxes with their names and scores. World frame: z up, metres.
+// oriented boxes with their names and scores, and on demand the Labels volume: one box per
+// label voxel coloured by the object of its heaviest label (the RGB voxels then turn grey).
+// World frame: z up, metres.
 //
 // Level of detail (docs/viewer.md): the viewer draws at most `budget` voxels. It asks the
 // server for the smallest level L (GetVoxels ?level=L: one voxel per block of 2^L voxels a
@@ -8,10 +10,18 @@
 // per level), and stops paging at 2 x budget whatever the level gave.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { getTrajectory, getVoxels, listInstances } from './api.js';
+import { getLabelVoxels, getTrajectory, getVoxels, listInstances } from './api.js';
 
 export const DEFAULT_BUDGET = 200000;
 const BACKGROUND = 0x15171a;
+// Label voxels: a colour per object id (the palette repeats after 10 objects); white for a
+// class the map's classifier does not know (obj_id 0).
+const OBJECT_PALETTE = ['#e6194b', '#3cb44b', '#4363d8', '#f58231', '#911eb4', '#42d4f4', '#f032e6',
+  '#bfef45', '#fabed4', '#ffe119'];
+export const objectColour = (objId) => (objId > 0 ? OBJECT_PALETTE[(objId - 1) % OBJECT_PALETTE.length] : '#ffffff');
+// Label voxels are drawn this many times their edge: they are sparse (one per verified
+// feature, 5 mm by default) and would be specks otherwise.
+const LABEL_BOX_SCALE = 2;
 
 export function chooseLevel(voxels, budget) {
   let level = 0;
@@ -45,6 +55,11 @@ export class View3D {
     this.scene.add(this.instances);
     this.trajectory = new THREE.Group();
     this.scene.add(this.trajectory);
+    this.labels = new THREE.Group();
+    this.labels.visible = false;
+    this.scene.add(this.labels);
+    this.labelObjects = {};  // obj_id -> label voxels shown
+    this.voxelColours = null;  // the RGB voxels' colours (0xRRGGBB), for greying them
     this.framed = null;  // the map whose bounds the camera was fitted to
     this.loading = null;
     new ResizeObserver(() => this.resize()).observe(container);
@@ -66,6 +81,10 @@ export class View3D {
       this.pending = 0;
       if (this.controls.update()) this.requestRender();
       this.renderer.render(this.scene, this.camera);
+      // For the benchmark (bench/viewer_bench.mjs): when the voxels were first drawn.
+      if (this.voxels && this.voxels.count > 0 && this.firstVoxelRender === undefined) {
+        this.firstVoxelRender = performance.now();
+      }
     });
   }
 
@@ -77,15 +96,30 @@ export class View3D {
     const box = new THREE.Box3(new THREE.Vector3(b.min.x, b.min.y, b.min.z),
                                new THREE.Vector3(b.max.x, b.max.y, b.max.z));
     if (this.trajectoryBox) box.union(this.trajectoryBox);  // the cameras in view too
+    this.fitBox(box, 0.5);
+  }
+
+  // Looks at `box` (a THREE.Box3) from above and to the side, close enough to fill the view
+  // with it (at least `minSize` metres across).
+  fitBox(box, minSize) {
     const { min, max } = box;
     const centre = min.clone().add(max).multiplyScalar(0.5);
-    const size = Math.max(max.distanceTo(min), 0.5);
+    const size = Math.max(max.distanceTo(min), minSize);
     this.controls.target.copy(centre);
     this.camera.position.copy(centre).add(new THREE.Vector3(0.35, -0.55, 0.45).multiplyScalar(size));
     this.camera.near = size / 1000;
     this.camera.far = size * 20;
     this.camera.updateProjectionMatrix();
     this.controls.update();
+    this.requestRender();
+  }
+
+  // Fits the camera to the instances' boxes; false when there are none.
+  frameInstances() {
+    const box = new THREE.Box3().setFromObject(this.instances);
+    if (box.isEmpty()) return false;
+    this.fitBox(box, 0.3);
+    return true;
   }
 
   // (Re)loads the voxels of `map` (a v1.Map); reports the level of detail with onLod.
@@ -98,6 +132,7 @@ export class View3D {
     const cap = 2 * this.budget;
     const positions = [];
     const colours = [];
+    const fetchStart = performance.now();
     const result = await getVoxels(id, level, cap, (page) => {
       for (const v of page) {
         positions.push(v.center.x || 0, v.center.y || 0, v.center.z || 0);
@@ -105,10 +140,13 @@ export class View3D {
       }
     });
     if (this.loading !== token) return null;  // a newer load started
+    const buildStart = performance.now();
     this.show(positions, colours, result.resolution);
     this.frame(map);
     const lod = { level, shown: positions.length / 3, total: voxels, truncated: result.truncated,
-                  resolution: result.resolution };
+                  resolution: result.resolution, fetchMs: buildStart - fetchStart,
+                  buildMs: performance.now() - buildStart };
+    this.lastLod = lod;
     if (onLod) onLod(lod);
     this.requestRender();
     return lod;
@@ -117,30 +155,76 @@ export class View3D {
   show(positions, colours, resolution) {
     if (this.voxels) {
       this.scene.remove(this.voxels);
-      this.voxels.geometry.dispose();
-      this.voxels.material.dispose();
-      this.voxels.dispose();
+      disposeMesh(this.voxels);
     }
-    const n = colours.length;
-    const geometry = new THREE.BoxGeometry(resolution, resolution, resolution);
-    const material = new THREE.MeshLambertMaterial();
-    const mesh = new THREE.InstancedMesh(geometry, material, Math.max(n, 1));
-    mesh.count = n;
-    const m = new THREE.Matrix4();
+    this.voxels = instancedBoxes(positions, colours, resolution);
+    this.voxelColours = colours;
+    this.greyVoxels(this.labels.visible);
+    this.scene.add(this.voxels);
+  }
+
+  // Colours the RGB voxels by their colour, or (grey = true) by its dimmed luminance.
+  greyVoxels(grey) {
+    if (!this.voxels || !this.voxelColours) return;
     const c = new THREE.Color();
-    for (let i = 0; i < n; i++) {
-      m.makeTranslation(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
-      mesh.setMatrixAt(i, m);
-      const rgb = colours[i];
-      c.setRGB(((rgb >> 16) & 255) / 255, ((rgb >> 8) & 255) / 255, (rgb & 255) / 255,
-               THREE.SRGBColorSpace);
-      mesh.setColorAt(i, c);
+    this.voxelColours.forEach((rgb, i) => {
+      const r = (rgb >> 16) & 255, g = (rgb >> 8) & 255, b = rgb & 255;
+      if (grey) {
+        const y = (0.3 * (0.2126 * r + 0.7152 * g + 0.0722 * b) + 40) / 255;
+        c.setRGB(y, y, y, THREE.SRGBColorSpace);
+      } else {
+        c.setRGB(r / 255, g / 255, b / 255, THREE.SRGBColorSpace);
+      }
+      this.voxels.setColorAt(i, c);
+    });
+    if (this.voxels.instanceColor) this.voxels.instanceColor.needsUpdate = true;
+    // Under the labels the voxels are see-through: the labels lie on surfaces inside them.
+    const material = this.voxels.material;
+    material.transparent = grey;
+    material.opacity = grey ? 0.25 : 1;
+    material.depthWrite = !grey;
+    material.needsUpdate = true;
+  }
+
+  // (Re)loads the Labels volume of `map` (GET /v1/maps/{map}/labels, at most 2 x budget
+  // voxels), one box per voxel in its object's colour. Returns {shown, byObject (obj_id ->
+  // voxels), resolution, truncated}, or null if a newer load started meanwhile.
+  async loadLabels(map) {
+    const id = map.name.replace(/^maps\//, '');
+    const token = {};
+    this.labelsLoading = token;
+    const positions = [];
+    const colours = [];
+    const byObject = {};
+    const result = await getLabelVoxels(id, 2 * this.budget, (page) => {
+      for (const v of page) {
+        positions.push(v.center?.x || 0, v.center?.y || 0, v.center?.z || 0);
+        const obj = v.objId || 0;
+        byObject[obj] = (byObject[obj] || 0) + 1;
+        colours.push(parseInt(objectColour(obj).slice(1), 16));
+      }
+    });
+    if (this.labelsLoading !== token) return null;
+    for (const child of [...this.labels.children]) {
+      this.labels.remove(child);
+      disposeMesh(child);
     }
-    mesh.instanceMatrix.needsUpdate = true;
-    if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
-    mesh.computeBoundingSphere();
-    this.voxels = mesh;
-    this.scene.add(mesh);
+    if (colours.length) this.labels.add(instancedBoxes(positions, colours, LABEL_BOX_SCALE * result.resolution));
+    this.labelObjects = byObject;
+    this.requestRender();
+    return { shown: colours.length, byObject, resolution: result.resolution, truncated: result.truncated };
+  }
+
+  // Shows or hides the label voxels (the RGB voxels turn grey while they show).
+  showLabels(on) {
+    this.labels.visible = on;
+    this.greyVoxels(on);
+    this.requestRender();
+  }
+
+  // The colour of each object among the label voxels shown: {obj_id: "#rrggbb"}.
+  labelColours() {
+    return Object.fromEntries(Object.keys(this.labelObjects).map((obj) => [obj, objectColour(Number(obj))]));
   }
 
   // Instances as oriented boxes (the object's extent from its model voxels when known,
@@ -157,7 +241,9 @@ export class View3D {
       const size = extent.max.map((v, i) => v - extent.min[i]);
       const box = new THREE.LineSegments(
         new THREE.EdgesGeometry(new THREE.BoxGeometry(...size)),
-        new THREE.LineBasicMaterial({ color: 0xffcc33 }));
+        // Drawn over the voxels: an object inside the map's surface is still seen.
+        new THREE.LineBasicMaterial({ color: 0xffcc33, depthTest: false, transparent: true }));
+      box.renderOrder = 2;
       box.position.set(...extent.max.map((v, i) => (v + extent.min[i]) / 2));
       const holder = new THREE.Group();
       const p = inst.pose || {};
@@ -169,6 +255,8 @@ export class View3D {
       holder.add(label(`${inst.objectName || inst.object} ${Number(inst.score).toFixed(0)}`));
       this.instances.add(holder);
       const item = document.createElement('li');
+      item.dataset.object = inst.object;
+      item.dataset.score = String(inst.score);
       item.textContent = `${inst.objectName || inst.object}: score ${Number(inst.score).toFixed(0)}, fit ${Number(inst.fit || 0).toFixed(2)}`;
       list.appendChild(item);
     }
@@ -230,6 +318,34 @@ export class View3D {
     }
     return { drawn, total: full.length / 4 };
   }
+}
+
+// One THREE.InstancedMesh of boxes of edge `edge` at `positions` (x, y, z, ...) with
+// `colours` (0xRRGGBB, sRGB).
+function instancedBoxes(positions, colours, edge) {
+  const n = colours.length;
+  const geometry = new THREE.BoxGeometry(edge, edge, edge);
+  const mesh = new THREE.InstancedMesh(geometry, new THREE.MeshLambertMaterial(), Math.max(n, 1));
+  mesh.count = n;
+  const m = new THREE.Matrix4();
+  const c = new THREE.Color();
+  for (let i = 0; i < n; i++) {
+    m.makeTranslation(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
+    mesh.setMatrixAt(i, m);
+    const rgb = colours[i];
+    c.setRGB(((rgb >> 16) & 255) / 255, ((rgb >> 8) & 255) / 255, (rgb & 255) / 255, THREE.SRGBColorSpace);
+    mesh.setColorAt(i, c);
+  }
+  mesh.instanceMatrix.needsUpdate = true;
+  if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
+  mesh.computeBoundingSphere();
+  return mesh;
+}
+
+function disposeMesh(mesh) {
+  mesh.geometry.dispose();
+  mesh.material.dispose();
+  mesh.dispose();
 }
 
 function label(text) {

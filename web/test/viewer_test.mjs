@@ -12,109 +12,22 @@
 //
 //   node web/test/viewer_test.mjs --skimapd=build/release/server/skimapd \
 //     --web_root=web/dist --scene=../shared/data/ycbv-0000/test/000000 --out=build/viewer
-import { spawn } from 'node:child_process';
-import { mkdtempSync, mkdirSync, readFileSync, rmSync, existsSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { chromium } from 'playwright-core';
+import { call, check, failures, launchChromium, parseArgs, sceneFrames, startSkimapd, stopSkimapd } from './harness.mjs';
 
-const args = Object.fromEntries(process.argv.slice(2).map((a) => a.replace(/^--/, '').split(/=(.*)/s).slice(0, 2)));
-for (const required of ['skimapd', 'web_root', 'scene', 'out']) {
-  if (!args[required]) throw new Error(`--${required}= is required`);
-}
-const CHROMIUM = args.chromium || process.env.CHROMIUM || '/usr/bin/chromium';
+const args = parseArgs(process.argv.slice(2), ['skimapd', 'web_root', 'scene', 'out']);
 mkdirSync(args.out, { recursive: true });
-
-let failures = 0;
-function check(condition, what) {
-  console.log(`${condition ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!condition) failures++;
-}
-
-// --- the frames of a BOP scene as v1.Frame JSON --------------------------------------
-
-function quaternion(m) {  // row-major 3x3 -> {w, x, y, z}
-  const [a, b, c, d, e, f, g, h, i] = m;
-  const trace = a + e + i;
-  let w, x, y, z;
-  if (trace > 0) {
-    const s = 0.5 / Math.sqrt(trace + 1);
-    w = 0.25 / s; x = (h - f) * s; y = (c - g) * s; z = (d - b) * s;
-  } else if (a > e && a > i) {
-    const s = 2 * Math.sqrt(1 + a - e - i);
-    w = (h - f) / s; x = 0.25 * s; y = (b + d) / s; z = (c + g) / s;
-  } else if (e > i) {
-    const s = 2 * Math.sqrt(1 + e - a - i);
-    w = (c - g) / s; x = (b + d) / s; y = 0.25 * s; z = (f + h) / s;
-  } else {
-    const s = 2 * Math.sqrt(1 + i - a - e);
-    w = (d - b) / s; x = (c + g) / s; y = (f + h) / s; z = 0.25 * s;
-  }
-  const n = Math.hypot(w, x, y, z);
-  return { w: w / n, x: x / n, y: y / n, z: z / n };
-}
-
-function sceneFrames(scene) {
-  const cameras = JSON.parse(readFileSync(join(scene, 'scene_camera.json'), 'utf8'));
-  return Object.keys(cameras).map(Number).sort((p, q) => p - q).map((id) => {
-    const cam = cameras[id];
-    const R = cam.cam_R_w2c;
-    const t = cam.cam_t_w2c.map((v) => v / 1000);  // mm -> m
-    const Rt = [R[0], R[3], R[6], R[1], R[4], R[7], R[2], R[5], R[8]];  // world <- camera
-    const T = [0, 1, 2].map((r) => -(Rt[3 * r] * t[0] + Rt[3 * r + 1] * t[1] + Rt[3 * r + 2] * t[2]));
-    const name = String(id).padStart(6, '0');
-    const K = cam.cam_K;
-    return {
-      map: 'maps/ycbv',
-      sequence: String(id),
-      pose: { rotation: quaternion(Rt), translation: { x: T[0], y: T[1], z: T[2] } },
-      intrinsics: { fx: K[0], fy: K[4], cx: K[2], cy: K[5], width: 640, height: 480 },
-      depthEncoding: 'DEPTH_ENCODING_PNG16',
-      depth: readFileSync(join(scene, 'depth', `${name}.png`)).toString('base64'),
-      depthScale: cam.depth_scale / 1000,
-      colorEncoding: 'COLOR_ENCODING_PNG',
-      color: readFileSync(join(scene, 'rgb', `${name}.png`)).toString('base64'),
-    };
-  });
-}
-
-// --- skimapd -----------------------------------------------------------------------
-
-function startServer(dataDir) {
-  const server = spawn(args.skimapd, ['--address=127.0.0.1:0', '--http_address=127.0.0.1:0',
-    `--data_dir=${dataDir}`, `--web_root=${args.web_root}`], { stdio: ['ignore', 'pipe', 'inherit'] });
-  return new Promise((resolve, reject) => {
-    let out = '';
-    const timer = setTimeout(() => reject(new Error(`skimapd did not start: ${out}`)), 60000);
-    server.stdout.on('data', (chunk) => {
-      out += chunk;
-      const m = out.match(/REST on http port (\d+)/);
-      if (m) {
-        clearTimeout(timer);
-        resolve({ server, base: `http://127.0.0.1:${m[1]}` });
-      }
-    });
-    server.on('exit', (code) => reject(new Error(`skimapd exited with ${code}: ${out}`)));
-  });
-}
-
-async function call(base, method, path, body) {
-  const response = await fetch(base + path, {
-    method, headers: { 'Content-Type': 'application/json' }, body: body && JSON.stringify(body),
-  });
-  const json = await response.json();
-  if (!response.ok) throw new Error(`${method} ${path}: ${response.status} ${JSON.stringify(json)}`);
-  return json;
-}
 
 // --- the test ----------------------------------------------------------------------
 
 const dataDir = mkdtempSync(join(tmpdir(), 'skimap_viewer_'));
-const { server, base } = await startServer(dataDir);
+const { server, base } = await startSkimapd(args.skimapd, [`--data_dir=${dataDir}`, `--web_root=${args.web_root}`]);
 let browser;
 try {
   await call(base, 'POST', '/v1/maps', { mapId: 'ycbv', options: { resolution: 0.01 } });
-  const frames = sceneFrames(args.scene);
+  const frames = sceneFrames(args.scene, 'maps/ycbv');
   check(frames.length >= 2, `the scene has ${frames.length} frames`);
   for (const frame of frames.slice(0, -1)) {
     const ack = await call(base, 'POST', '/v1/maps/ycbv/frames', frame);
@@ -123,10 +36,7 @@ try {
   const before = await call(base, 'GET', '/v1/maps/ycbv');
   console.log(`map ycbv: ${before.stats.voxels} voxels, ${before.stats.frames} frames`);
 
-  browser = await chromium.launch({
-    executablePath: CHROMIUM, headless: true,
-    args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
-  });
+  browser = await launchChromium(args.chromium);
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   const errors = [];
   page.on('pageerror', (e) => errors.push(String(e)));
@@ -212,9 +122,8 @@ try {
   check(errors.length === 0, `no page errors${errors.length ? `: ${errors.join('; ')}` : ''}`);
 } finally {
   if (browser) await browser.close();
-  server.kill('SIGTERM');
-  await new Promise((resolve) => server.once('exit', resolve));
+  await stopSkimapd(server);
   rmSync(dataDir, { recursive: true, force: true });
 }
-console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
-process.exit(failures ? 1 : 0);
+console.log(failures() ? `${failures()} check(s) failed` : 'all checks passed');
+process.exit(failures() ? 1 : 0);
