@@ -156,6 +156,13 @@ absl::StatusOr<RestReply> HeightMap(const MapService& maps, const RestCall& call
 
 const char* OpenApiJson() { return kOpenApiJson; }
 
+RestRoute MetricsRoute(Metrics& metrics) {
+  return {"GET", "/metrics", [&metrics](const RestCall&) -> absl::StatusOr<RestReply> {
+            return RestReply{.content_type = "text/plain; version=0.0.4; charset=utf-8",
+                             .body = metrics.Scrape()};
+          }};
+}
+
 std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events) {
   std::vector<RestRoute> routes;
   routes.push_back({"GET", "/healthz", [](const RestCall&) -> absl::StatusOr<RestReply> {
