@@ -26,11 +26,12 @@ std::string MethodLabel(const char* method) {
   return "other";
 }
 
-// The map a request names (its `map` field, or a `name` of the form "maps/..."), capped.
+// The map a request names (its `map` field, a `name` of the form "maps/...", or the
+// `map_id` of CreateMap), capped.
 std::string MapOf(const google::protobuf::Message& request) {
   const google::protobuf::Descriptor* d = request.GetDescriptor();
   const google::protobuf::Reflection* r = request.GetReflection();
-  for (const char* field : {"map", "name"}) {
+  for (const char* field : {"map", "name", "map_id"}) {
     const google::protobuf::FieldDescriptor* f = d->FindFieldByName(field);
     if (f == nullptr || f->is_repeated() ||
         f->type() != google::protobuf::FieldDescriptor::TYPE_STRING) {
@@ -38,6 +39,7 @@ std::string MapOf(const google::protobuf::Message& request) {
     }
     const std::string value = r->GetString(request, f);
     if (std::string_view(field) == "name" && !absl::StartsWith(value, "maps/")) continue;
+    if (std::string_view(field) == "map_id") return "maps/" + value.substr(0, 256);
     return value.substr(0, 256);
   }
   return "";
