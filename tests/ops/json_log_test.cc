@@ -127,7 +127,7 @@ TEST(JsonLogTest, EveryLineIsJsonAndCarriesTheCallsRequestIdButNoSecret) {
   EXPECT_THAT(text, ::testing::Not(HasSubstr("Bearer")));
 
   // CreateMap: the core's line and the access line, one id.
-  const auto create = WithId(lines, "it-create-42");
+  auto create = WithId(lines, "it-create-42");
   ASSERT_EQ(create.size(), 2u) << text;
   EXPECT_EQ(create[0]["msg"], "map maps/m created");
   EXPECT_EQ(create[0]["method"], "skimap.v1.MapService/CreateMap");
@@ -138,7 +138,7 @@ TEST(JsonLogTest, EveryLineIsJsonAndCarriesTheCallsRequestIdButNoSecret) {
   EXPECT_GE(create[1]["latency_ms"].get<double>(), 0.0);
 
   // The stream: the refused frame's line (written on the map's worker) and the access line.
-  const auto stream = WithId(lines, "it-stream-7");
+  auto stream = WithId(lines, "it-stream-7");
   ASSERT_EQ(stream.size(), 2u) << text;
   EXPECT_EQ(stream[0]["level"], "warning");
   EXPECT_THAT(stream[0]["msg"].get<std::string>(), HasSubstr("frame 1 refused: INVALID_ARGUMENT"));
@@ -148,20 +148,20 @@ TEST(JsonLogTest, EveryLineIsJsonAndCarriesTheCallsRequestIdButNoSecret) {
   EXPECT_EQ(stream[1]["code"], 0);
 
   for (const std::string& id : {generated, replaced}) {
-    const auto get = WithId(lines, id);
+    auto get = WithId(lines, id);
     ASSERT_EQ(get.size(), 1u) << text;
     EXPECT_EQ(get[0]["method"], "skimap.v1.MapService/GetMap");
     EXPECT_EQ(get[0]["map"], "maps/nope");
     EXPECT_EQ(get[0]["code"], 5);
   }
 
-  const auto rest = WithId(lines, "it-rest-9");
+  auto rest = WithId(lines, "it-rest-9");
   ASSERT_EQ(rest.size(), 1u) << text;
   EXPECT_EQ(rest[0]["route"], "GET /v1/maps/{map}");
   EXPECT_EQ(rest[0]["map"], "maps/m");
   EXPECT_EQ(rest[0]["code"], 200);
   EXPECT_GE(rest[0]["latency_ms"].get<double>(), 0.0);
-  const auto rest_bad = WithId(lines, "it-rest-10");
+  auto rest_bad = WithId(lines, "it-rest-10");
   ASSERT_EQ(rest_bad.size(), 1u) << text;
   EXPECT_EQ(rest_bad[0]["route"], "POST /v1/maps");
   EXPECT_EQ(rest_bad[0]["code"], 400);

@@ -11,7 +11,9 @@
 // error (a refused frame, a failed query, skimapd gone) or when, over the second half of
 // the run, RSS grows faster than the maps' own memory by more than
 // --max_rss_slope_mb_per_min (a leak: memory that no map accounts for); 2 on bad flags.
+#include <arpa/inet.h>
 #include <httplib.h>
+#include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -152,8 +154,10 @@ int Main() {
     pid = fork();
     if (pid == 0) {
       const std::string log = data_dir + "/skimapd.log";
-      std::freopen(log.c_str(), "w", stdout);
-      std::freopen(log.c_str(), "a", stderr);
+      if (std::freopen(log.c_str(), "w", stdout) == nullptr ||
+          std::freopen(log.c_str(), "a", stderr) == nullptr) {
+        _exit(126);
+      }
       std::vector<char*> argv;
       for (std::string& a : args) argv.push_back(a.data());
       argv.push_back(nullptr);
