@@ -192,19 +192,20 @@ void QueryClient::Run() {
       }
       if (!s.ok()) error = absl::StrCat(name, ": code ", s.error_code(), " ", s.error_message());
     } else {
-      httplib::Result res;
-      if (kind == 0) {
-        res = http->Get(absl::StrCat("/v1/maps/", map_id, "/occupancyGrid?region=", p.x - 5, ",",
-                                     p.y - 5, ",", p.x + 5, ",", p.y + 5));
-      } else if (kind == 1) {
-        res = http->Get(absl::StrCat("/v1/maps/", map_id, "/voxels?pageSize=5000&box=", p.x - 2,
-                                     ",", p.y - 2, ",-1,", p.x + 2, ",", p.y + 2, ",1"));
-      } else {
-        res = http->Post(absl::StrCat("/v1/maps/", map_id, ":radiusSearch"),
-                         absl::StrCat(R"({"center": {"x": )", p.x, R"(, "y": )", p.y,
-                                      R"(, "z": 0}, "radius": 1.0})"),
-                         "application/json");
-      }
+      httplib::Result res = [&] {
+        if (kind == 0) {
+          return http->Get(absl::StrCat("/v1/maps/", map_id, "/occupancyGrid?region=", p.x - 5, ",",
+                                        p.y - 5, ",", p.x + 5, ",", p.y + 5));
+        }
+        if (kind == 1) {
+          return http->Get(absl::StrCat("/v1/maps/", map_id, "/voxels?pageSize=5000&box=", p.x - 2,
+                                        ",", p.y - 2, ",-1,", p.x + 2, ",", p.y + 2, ",1"));
+        }
+        return http->Post(absl::StrCat("/v1/maps/", map_id, ":radiusSearch"),
+                          absl::StrCat(R"({"center": {"x": )", p.x, R"(, "y": )", p.y,
+                                       R"(, "z": 0}, "radius": 1.0})"),
+                          "application/json");
+      }();
       if (!res) {
         error = absl::StrCat(name, ": ", httplib::to_string(res.error()));
       } else if (res->status != 200) {

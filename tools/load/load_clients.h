@@ -12,6 +12,8 @@
 #ifndef TOOLS_LOAD_LOAD_CLIENTS_H_
 #define TOOLS_LOAD_LOAD_CLIENTS_H_
 
+#include <grpcpp/grpcpp.h>
+
 #include <atomic>
 #include <condition_variable>
 #include <map>
