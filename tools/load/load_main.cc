@@ -216,14 +216,19 @@ int Main() {
   httplib::Client http("127.0.0.1", http_port);
   std::vector<Sample> samples;
   bool died = false;
-  for (int s = 0; s <= duration; ++s) {
-    std::this_thread::sleep_until(start + std::chrono::seconds(s));
+  // About one sample a second, for `duration` seconds whatever a scrape takes.
+  const Clock::time_point end = start + std::chrono::seconds(duration);
+  for (int s = 0;; ++s) {
+    std::this_thread::sleep_until(std::min(end, start + std::chrono::seconds(s)));
+    const double t = std::chrono::duration<double>(Clock::now() - start).count();
     const double rss = RssMiB(pid);
     if (rss < 0) {
       died = true;
       break;
     }
-    samples.push_back({static_cast<double>(s), rss, MapMiB(http)});
+    samples.push_back({t, rss, MapMiB(http)});
+    if (Clock::now() >= end) break;
+    s = std::max(s, static_cast<int>(t));
   }
   for (auto& q : queries) q->Stop();
   for (auto& r : robots) r->Stop();
