@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <type_traits>
 
 #include "server/http/rest_request.h"
 #include "skimap/v1/frames.pb.h"
@@ -40,7 +41,9 @@ void Check(const std::string& body, const std::vector<Binding>& bindings) {
     if (request.status().message().empty()) Fail("a REST body refused without a message");
     return;
   }
-  if (!bindings.empty() && request->map() != "maps/fuzz") Fail("the path's map was not bound");
+  if constexpr (!std::is_same_v<Request, v1::CreateMapRequest>) {
+    if (request->map() != "maps/fuzz") Fail("the path's map was not bound");
+  }
   const std::string json = server::ToJson(*request);
   Request again;
   if (!server::FromJsonBody(json, &again).ok()) Fail("a parsed request's JSON does not parse");
