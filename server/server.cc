@@ -24,8 +24,11 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
     }
   }
   std::unique_ptr<Server> s(new Server());
+  s->metrics_ = std::make_unique<Metrics>();
   MapService::Options maps = options.maps;
+  maps.metrics = s->metrics_.get();
   GrpcServer::Options grpc = options.grpc;
+  grpc.metrics = s->metrics_.get();
   if (!options.fleet.store_url.empty()) {
     const std::string& advertise = options.fleet.advertise_address;
     absl::StatusOr<std::unique_ptr<Fleet>> fleet = Fleet::Open(
@@ -60,6 +63,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   maps.classifier = [registry] { return registry->classifier(); };
   s->maps_ = std::make_unique<MapService>(maps);
   if (absl::Status recovered = s->maps_->Recover(); !recovered.ok()) return recovered;
+  s->metrics_->SetMapGaugeSource([m = s->maps_.get()] { return m->MetricGauges(); });
 
   absl::StatusOr<std::unique_ptr<GrpcServer>> grpc_server =
       GrpcServer::Start(grpc, s->maps_.get(), s->objects_.get());
@@ -67,8 +71,12 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   s->grpc_ = *std::move(grpc_server);
   if (!options.http.address.empty()) {
     s->events_ = std::make_unique<MapEvents>(*s->maps_, options.events);
+    std::vector<RestRoute> routes = MakeRestRoutes(*s->maps_, *s->objects_, *s->events_);
+    routes.push_back(MetricsRoute(*s->metrics_));
+    HttpServer::Options http_options = options.http;
+    http_options.metrics = s->metrics_.get();
     absl::StatusOr<std::unique_ptr<HttpServer>> http =
-        HttpServer::Start(options.http, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
+        HttpServer::Start(http_options, std::move(routes));
     if (!http.ok()) return http.status();
     s->http_ = *std::move(http);
   }

@@ -27,6 +27,7 @@
 #include "server/http/http_server.h"
 #include "server/http/map_events.h"
 #include "server/maps/map_service.h"
+#include "server/metrics/metrics.h"
 #include "server/objects/object_service.h"
 #include "storage/map_store.h"
 
@@ -61,6 +62,10 @@ class Server {
     HttpServer::Options http = {.address = ""};
     // The viewer's live updates (GET /v1/maps/{map}/events).
     MapEvents::Options events;
+    // GET /metrics (Prometheus text, on the REST adapter) answers without a token when
+    // authentication is configured (skimapd --metrics_public); false: it takes a token
+    // like the other routes. The route exists whenever HTTP is on.
+    bool metrics_public = true;
   };
 
   // Checks both listen addresses, joins the fleet, opens the store, builds the cores
@@ -77,6 +82,8 @@ class Server {
   ObjectService& objects() { return *objects_; }
   // The HTTP adapter (its route table), or null without HTTP.
   const HttpServer* http() const { return http_.get(); }
+  // The Prometheus instruments the cores and adapters report to (GET /metrics).
+  Metrics& metrics() { return *metrics_; }
   // The fleet membership, or null on a single server.
   Fleet* fleet() { return fleet_.get(); }
 
@@ -88,6 +95,7 @@ class Server {
   Server() = default;
 
   // Declared in dependency order: destroyed from the adapters up to the fleet.
+  std::unique_ptr<Metrics> metrics_;          // outlives everything that reports to it
   std::unique_ptr<Fleet> fleet_;              // outlives the store it holds and the cores
   std::unique_ptr<storage::MapStore> store_;  // outlives the cores
   std::unique_ptr<ObjectService> objects_;    // outlives maps_: maps ask it for the classifier

@@ -9,6 +9,7 @@
 //           [--http_address=127.0.0.1:8080] [--http_max_body_mb=32]
 //           [--http_cors_origins=ORIGIN,...] [--http_threads=8]
 //           [--web_root=DIR] [--http_max_event_streams=4]
+//           [--log_format=text|json] [--metrics_public=true]
 //           [--store=postgresql://user@host:port/db [--advertise_address=HOST:PORT]
 //            [--lease_ttl_ms=6000]]
 //
@@ -34,6 +35,7 @@
 #include "absl/flags/usage.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_split.h"
+#include "server/logging/log.h"
 #include "server/server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
@@ -72,6 +74,13 @@ ABSL_FLAG(std::string, advertise_address, "",
 ABSL_FLAG(int, lease_ttl_ms, 6000,
           "with a PostgreSQL --store: map leases and heartbeats expire after this long without "
           "renewal (renewed every third of it); a dead node's maps move after about this long");
+ABSL_FLAG(std::string, log_format, "text",
+          "stderr log: text (\"skimapd: message\" lines) or json (one JSON object per line: "
+          "time, level, msg, request_id, method or route, map, code, latency_ms; plus one "
+          "access line per call)");
+ABSL_FLAG(bool, metrics_public, true,
+          "GET /metrics (Prometheus text on --http_address) answers without a token when "
+          "authentication is configured; false: it needs a token like the other routes");
 ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
@@ -101,6 +110,12 @@ ABSL_FLAG(int64_t, journal_retain_mb, 1024,
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("SkiMap map server: skimapd [--address=host:port] ...");
   absl::ParseCommandLine(argc, argv);
+  if (const std::string format = absl::GetFlag(FLAGS_log_format); format == "json") {
+    skimap::server::SetLogFormat(skimap::server::LogFormat::kJson);
+  } else if (format != "text") {
+    std::fprintf(stderr, "skimapd: --log_format must be text or json\n");
+    return 2;
+  }
 
   // Block the stop signals in every thread (gRPC's included); main waits for them below.
   sigset_t stop_signals;
@@ -147,6 +162,7 @@ int main(int argc, char** argv) {
       options.http.web_root = SKIMAP_WEB_DIST;
     }
   }
+  options.metrics_public = absl::GetFlag(FLAGS_metrics_public);
   options.events.max_clients = absl::GetFlag(FLAGS_http_max_event_streams);
   for (absl::string_view origin :
        absl::StrSplit(absl::GetFlag(FLAGS_http_cors_origins), ',', absl::SkipWhitespace())) {

@@ -3,7 +3,23 @@
 #include <algorithm>
 #include <utility>
 
+#include "server/logging/request_context.h"
+
 namespace skimap::server {
+namespace {
+
+// The task, run under the submitting thread's request (logging/request_context.h), so the
+// log lines of a call's work on a worker carry its request id.
+std::function<void()> WithRequest(std::function<void()> task) {
+  const std::shared_ptr<const RequestContext>& request = CurrentRequest();
+  if (request == nullptr) return task;
+  return [request, task = std::move(task)] {
+    ScopedRequest scope(request);
+    task();
+  };
+}
+
+}  // namespace
 
 WorkQueue::WorkQueue(const Options& options)
     : capacity_(options.capacity < 1 ? 1 : options.capacity) {
@@ -20,6 +36,7 @@ WorkQueue::~WorkQueue() {
 }
 
 bool WorkQueue::TrySubmit(std::function<void()> task) {
+  task = WithRequest(std::move(task));
   {
     MutexLock lock(&mu_);
     if (stopping_ || tasks_.size() >= capacity_) return false;
@@ -30,6 +47,7 @@ bool WorkQueue::TrySubmit(std::function<void()> task) {
 }
 
 bool WorkQueue::Submit(std::function<void()> task) {
+  task = WithRequest(std::move(task));
   {
     MutexLock lock(&mu_);
     if (stopping_) return false;

@@ -6,6 +6,8 @@
 //   WorkQueue queue({.capacity = 64});
 //   if (!queue.TrySubmit([] { ... })) { /* full: tell the client RESOURCE_EXHAUSTED */ }
 //
+// A task runs under the request (logging/request_context.h) current where it was submitted.
+//
 // The destructor stops accepting tasks, runs every task already queued, then joins.
 //
 // Thread safety: TrySubmit may be called from any thread, except from a task of the same

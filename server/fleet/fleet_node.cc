@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/fleet/redirect.h"
+#include "server/logging/log.h"
 
 namespace skimap::server {
 namespace {
@@ -62,7 +63,7 @@ void FleetNode::HeartbeatLoop() {
         leases_->Heartbeat(options_.address, options_.lease_ttl);
     if (!lost.ok()) {
       // The leases run out locally; writes stay fenced in the store meanwhile.
-      std::fprintf(stderr, "skimapd: fleet heartbeat: %s\n", lost.status().ToString().c_str());
+      LogWarning(absl::StrCat("fleet heartbeat: ", lost.status().ToString()));
     } else {
       for (const std::string& id : *lost) Lost(id);
     }
@@ -75,7 +76,7 @@ void FleetNode::Lost(const std::string& id) {
     MutexLock lock(&mu_);
     if (owned_.erase(id) == 0) return;
   }
-  std::fprintf(stderr, "skimapd: lost the lease of map %s to another node\n", id.c_str());
+  LogWarning(absl::StrCat("lost the lease of map ", id, " to another node"));
   if (lost_) lost_(id);
 }
 

@@ -25,6 +25,7 @@ void FrameStreamReactor::OnReadDone(bool ok) {
     }
   }
   if (frame) {
+    ScopedRequest scope(request_);
     const uint64_t sequence = frame->sequence();
     core_->IntegrateFrame(std::move(frame), [this, sequence](absl::StatusOr<v1::FrameAck> r) {
       OnFrameDone(sequence, std::move(r));

@@ -19,6 +19,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "server/grpc/stream_limiter.h"
+#include "server/logging/request_context.h"
 #include "server/maps/map_service.h"
 #include "skimap/rw_lock.h"
 #include "skimap/v1/frames.pb.h"
@@ -41,6 +42,8 @@ class FrameStreamReactor final : public grpc::ServerBidiReactor<v1::Frame, v1::F
   void Step();
 
   MapService* const core_;
+  // The call's request (call_observer.h), current while a frame is handed to the core.
+  const std::shared_ptr<const RequestContext> request_ = CurrentRequest();
   const int max_in_flight_;
   StreamLimiter::Slot slot_;
   RwLock mu_;

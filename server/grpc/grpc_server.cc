@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "server/grpc/call_observer.h"
 #include "server/listen_address.h"
 
 namespace skimap::server {
@@ -31,6 +32,7 @@ absl::StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(const Options& opt
   builder.RegisterService(s->grpc_maps_.get());
   builder.RegisterService(s->grpc_objects_.get());
   for (grpc::Service* service : options.more_services) builder.RegisterService(service);
+  builder.experimental().SetInterceptorCreators(MakeCallObservers(options.metrics));
   s->server_ = builder.BuildAndStart();
   if (s->server_ == nullptr || s->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.address));

@@ -22,6 +22,7 @@
 #include "server/grpc/grpc_service.h"
 #include "server/grpc/object_grpc_service.h"
 #include "server/maps/map_service.h"
+#include "server/metrics/metrics.h"
 #include "server/objects/object_service.h"
 
 namespace skimap::server {
@@ -43,6 +44,9 @@ class GrpcServer {
     // Further gRPC services served on the same port (not owned; outlive the server), e.g.
     // a fleet node's FleetService.
     std::vector<grpc::Service*> more_services;
+    // Request latency by method and code (not owned; outlives the server); null: none.
+    // Request ids and access log lines (call_observer.h) are on either way.
+    Metrics* metrics = nullptr;
   };
 
   // Binds and starts serving `maps` and `objects` (not owned; REQUIRES: both outlive the

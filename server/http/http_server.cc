@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "perception/echo.h"
+#include "server/http/http_call.h"
 #include "server/http/http_status.h"
 #include "server/http/rest_messages.h"
 #include "server/listen_address.h"
@@ -162,6 +163,7 @@ void HttpServer::Stop() {
 }
 
 void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& response) const {
+  HttpCall call(request, response, options_.metrics);  // request id, metrics, access line
   const std::string method = request.method == "HEAD" ? "GET" : request.method;
   std::vector<std::string> allowed;
   for (size_t i = 0; i < routes_.size(); ++i) {
@@ -177,16 +179,20 @@ void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& re
     if (const size_t q = request.target.find('?'); q != std::string::npos) {
       httplib::detail::parse_query_text(request.target.substr(q + 1), query);
     }
-    RestCall call{
+    RestCall rest{
         .query = query, .body = request.body, .accept = request.get_header_value("Accept")};
     for (size_t p = 0; p < compiled_[i].parameters.size(); ++p) {
-      call.path[compiled_[i].parameters[p]] = match[p + 1].str();
+      rest.path[compiled_[i].parameters[p]] = match[p + 1].str();
     }
-    absl::StatusOr<RestReply> reply = routes_[i].handler(call);
+    const auto map = rest.path.find("map");
+    call.SetRoute(absl::StrCat(routes_[i].method, " ", routes_[i].path),
+                  map == rest.path.end() ? "" : absl::StrCat("maps/", map->second.substr(0, 256)));
+    absl::StatusOr<RestReply> reply = routes_[i].handler(rest);
     if (!reply.ok()) return WriteError(response, reply.status());
     return Answer(*std::move(reply), response);
   }
   if (allowed.empty() && files_ && method == "GET" && !absl::StartsWith(request.path, "/v1/")) {
+    call.SetRoute("static", "");
     absl::StatusOr<RestReply> file = files_->Get(request.path);
     if (!file.ok()) return WriteError(response, file.status());
     return Answer(*std::move(file), response);

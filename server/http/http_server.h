@@ -34,6 +34,7 @@
 #include "absl/status/statusor.h"
 #include "server/http/rest_route.h"
 #include "server/http/static_files.h"
+#include "server/metrics/metrics.h"
 
 // cpp-httplib stays out of this header: <httplib.h> includes <resolv.h>, whose `_res`
 // macro breaks headers included after it (Eigen's).
@@ -58,6 +59,9 @@ class HttpServer {
     std::vector<std::string> cors_origins;
     // The viewer's files (web/dist); "" = none. Must hold index.html.
     std::string web_root;
+    // Request latency by route and status (not owned; outlives the server); null: none.
+    // Request ids (X-Request-Id) and access log lines (http_call.h) are on either way.
+    Metrics* metrics = nullptr;
   };
 
   // Binds and starts serving `routes` on the pool. FailedPrecondition for an address

@@ -13,54 +13,11 @@
 #include "server/http/openapi_json.h"  // generated from openapi.json (CMakeLists.txt)
 #include "server/http/raster_images.h"
 #include "server/http/rest_messages.h"
+#include "server/http/rest_request.h"
 #include "skimap/v1/rest.pb.h"
 
 namespace skimap::server {
 namespace {
-
-// A request field set from the path: `field` = `pattern` with {param}s replaced.
-struct Binding {
-  const char* field;    // "name"
-  const char* pattern;  // "maps/{map}"
-};
-
-std::string Expand(const std::string& pattern, const RestCall& call) {
-  std::string out = pattern;
-  for (const auto& [param, value] : call.path) {
-    const std::string key = absl::StrCat("{", param, "}");
-    for (size_t at = out.find(key); at != std::string::npos; at = out.find(key, at)) {
-      out.replace(at, key.size(), value);
-      at += value.size();
-    }
-  }
-  return out;
-}
-
-enum class Body { kNone, kJson };
-
-// The route's request message: the JSON body (if the route takes one), then the query
-// parameters (except `route_parameters`), then the path's bindings.
-template <class Request>
-absl::StatusOr<Request> ParseRequest(const RestCall& call, Body body,
-                                     const std::vector<Binding>& bindings,
-                                     const std::set<std::string>& route_parameters = {}) {
-  Request request;
-  if (body == Body::kJson) {
-    if (absl::Status s = FromJsonBody(call.body, &request); !s.ok()) return s;
-  }
-  std::set<std::string> path_fields;
-  for (const Binding& b : bindings) path_fields.insert(b.field);
-  if (absl::Status s = FromQueryParameters(call.query, path_fields, route_parameters, &request);
-      !s.ok()) {
-    return s;
-  }
-  for (const Binding& b : bindings) {
-    if (absl::Status s = BindPathField(b.field, Expand(b.pattern, call), &request); !s.ok()) {
-      return s;
-    }
-  }
-  return request;
-}
 
 RestReply JsonReply(const google::protobuf::Message& message) {
   return RestReply{.content_type = "application/json", .body = ToJson(message)};
@@ -155,6 +112,13 @@ absl::StatusOr<RestReply> HeightMap(const MapService& maps, const RestCall& call
 }  // namespace
 
 const char* OpenApiJson() { return kOpenApiJson; }
+
+RestRoute MetricsRoute(Metrics& metrics) {
+  return {"GET", "/metrics", [&metrics](const RestCall&) -> absl::StatusOr<RestReply> {
+            return RestReply{.content_type = "text/plain; version=0.0.4; charset=utf-8",
+                             .body = metrics.Scrape()};
+          }};
+}
 
 std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events) {
   std::vector<RestRoute> routes;

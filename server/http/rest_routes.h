@@ -22,6 +22,7 @@
 //   GET    /v1/maps/{map}/labels             GetLabelVoxels    ?box&pageSize&pageToken&minCount
 //   GET    /v1/objects                       ListObjects       ?pageSize&pageToken
 //   GET    /v1/objects/{object}              GetObject         ?view
+//   GET    /metrics                          Prometheus text exposition (MetricsRoute)
 //
 // The grid is JSON, a ROS map_server PGM (?format=pgm or Accept: image/x-portable-graymap)
 // or a PNG (?format=png or Accept: image/png); the height map JSON or a 16-bit PNG.
@@ -40,6 +41,7 @@
 #include "server/http/map_events.h"
 #include "server/http/rest_route.h"
 #include "server/maps/map_service.h"
+#include "server/metrics/metrics.h"
 #include "server/objects/object_service.h"
 
 namespace skimap::server {
@@ -47,6 +49,9 @@ namespace skimap::server {
 // The route table over `maps`, `objects` and `events` (not owned; REQUIRES: all outlive
 // every call of the routes' handlers).
 std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events);
+
+// GET /metrics: `metrics`' text exposition (not owned; REQUIRES: outlives every call).
+RestRoute MetricsRoute(Metrics& metrics);
 
 // The OpenAPI 3 document served at /v1/openapi.json (server/http/openapi.json, compiled in).
 const char* OpenApiJson();

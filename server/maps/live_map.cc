@@ -12,6 +12,7 @@
 #include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
 #include "perception/frame_integrator.h"
+#include "server/logging/log.h"
 #include "server/maps/chunk_codec.h"
 #include "server/maps/frame_decode.h"
 #include "server/maps/map_meta.h"
@@ -203,7 +204,7 @@ void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done
   if (!queued) {
     (*shared_done)(absl::ResourceExhaustedError(
         absl::StrCat("map ", MapName(id_), ": write queue full (", options_.queue_capacity,
-                     " pending); retry later")));
+                     " pending, skimapd --queue_capacity); retry later")));
     return;
   }
   if (job != nullptr) StartDecodeParts(job);
@@ -225,7 +226,11 @@ void LiveMap::SubmitPoseUpdates(std::shared_ptr<const v1::UpdatePosesRequest> re
 absl::StatusOr<uint64_t> LiveMap::Journal(storage::JournalRecord::Kind kind,
                                           const std::string& bytes) {
   if (options_.store == nullptr) return 0;
+  const Clock::time_point start = Clock::now();
   absl::StatusOr<uint64_t> position = options_.store->AppendJournal(id_, {{kind, bytes}});
+  if (options_.metrics != nullptr) {
+    options_.metrics->JournalAppendTook(absl::FromChrono(Clock::now() - start));
+  }
   if (position.ok()) {
     journal_position_.store(*position, std::memory_order_release);
     return *position;
@@ -254,9 +259,8 @@ absl::Status LiveMap::Load() {
       absl::Status s = queue_.Run([&] { return ReplayOnWorker(r); });
       if (absl::IsDataLoss(s)) return s;
       if (!s.ok()) {
-        std::fprintf(stderr, "skimapd: map %s: journal record %llu skipped: %s\n",
-                     MapName(id_).c_str(), static_cast<unsigned long long>(r.position),
-                     s.ToString().c_str());
+        LogWarning(absl::StrCat("map ", MapName(id_), ": journal record ", r.position,
+                                " skipped: ", s.ToString()));
       }
       after = r.position;
     }
@@ -419,6 +423,9 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
                                  " valid pixels outside it)"));
   }
   SetDuration(Clock::now() - start, ack.mutable_integration_time());
+  if (options_.metrics != nullptr && source == Source::kAppend) {
+    options_.metrics->IntegrationTook(absl::FromChrono(Clock::now() - start));
+  }
   if (decoded_out != nullptr && recognition_ != nullptr) {
     *decoded_out = std::make_shared<const perception::RgbdFrame>(std::move(*decoded));
     recycle.frame = nullptr;

@@ -54,6 +54,7 @@
 #include "server/maps/map_config.h"
 #include "server/maps/map_state.h"
 #include "server/maps/recognition_queue.h"
+#include "server/metrics/metrics.h"
 #include "server/work_queue.h"
 #include "skimap/mutex.h"
 #include "skimap/rw_lock.h"
@@ -87,6 +88,8 @@ class LiveMap {
     // The object database maps with recognition use, asked once when the map is created
     // or loaded (the map keeps that one). Null, or returning null: no recognition.
     std::function<std::shared_ptr<const objects::ObjectDatabase>()> classifier;
+    // Integration and journal latencies, recognised frames (not owned); null: none.
+    Metrics* metrics = nullptr;
   };
   using FrameDone = std::function<void(absl::StatusOr<v1::FrameAck>)>;
   using PosesDone = std::function<void(absl::StatusOr<v1::UpdatePosesResponse>)>;
@@ -121,6 +124,8 @@ class LiveMap {
   }
   // Counters from one snapshot.
   v1::MapStats Stats() const;
+  // Writes queued on the worker, not started yet.
+  size_t queued_writes() const { return queue_.pending(); }
 
   // Loads the map from the store: the latest snapshot, then the journal records after it.
   // A record that no longer applies (refused by today's validation) is reported on stderr

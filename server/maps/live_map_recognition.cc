@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "perception/recognition/active_sphere.h"
+#include "server/logging/log.h"
 #include "server/maps/instance_reconciler.h"
 #include "server/maps/live_map.h"
 
@@ -93,9 +94,8 @@ void LiveMap::RecognizeOnThread(RecognitionJob& job) {
   absl::StatusOr<recognition::LabelObservations> observed =
       thread_observer_->Observe(*job.frame, io.min_depth, io.max_depth);
   if (!observed.ok()) {
-    std::fprintf(stderr, "skimapd: %s: recognition of frame %llu: %s\n", MapName(id_).c_str(),
-                 static_cast<unsigned long long>(job.sequence),
-                 observed.status().ToString().c_str());
+    LogWarning(absl::StrCat(MapName(id_), ": recognition of frame ", job.sequence, ": ",
+                            observed.status().ToString()));
     return;
   }
   const std::optional<perception::CameraPose> pose =
@@ -158,6 +158,7 @@ std::optional<perception::CameraPose> LiveMap::ApplyLabelsOnWorker(
   }
   index_.SetRecognized(sequence);
   recognized_frames_.fetch_add(1, std::memory_order_acq_rel);
+  if (options_.metrics != nullptr) options_.metrics->FrameRecognized();
   recognition_changes_.fetch_add(1, std::memory_order_acq_rel);
   return entry->pose;
 }
@@ -311,10 +312,9 @@ void LiveMap::AfterLoadRecognition() {
   if (model_ == nullptr || r.fingerprint == 0 || r.fingerprint == model_->fingerprint()) return;
   // Labels name classes of another object database: they mean nothing with this one. The
   // instances (object ids and poses) stay; labels and hypotheses start again.
-  std::fprintf(stderr,
-               "skimapd: %s: the object classifier changed since the map's labels were made; "
-               "its labels and hypotheses are cleared (instances are kept)\n",
-               MapName(id_).c_str());
+  LogWarning(absl::StrCat(MapName(id_),
+                          ": the object classifier changed since the map's labels were made; "
+                          "its labels and hypotheses are cleared (instances are kept)"));
   DirtyChunks labels, hypotheses;
   state_.labels.ForEach(
       [&](const VoxelKey& k, const MultiLabelVoxel&) { labels.insert(ChunkOf(k)); });

@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/logging/log.h"
 #include "skimap/v1/maps.pb.h"
 
 namespace skimap::server {
@@ -124,10 +125,8 @@ void MapImporter::Abort() {
   // The store first: once the id is released, a CreateMap of it must find the store free.
   if (created_) {
     if (absl::Status s = store_->DeleteMap(id_); !s.ok()) {
-      std::fprintf(stderr,
-                   "skimapd: import of %s: the partial map was not deleted (%s); the next start "
-                   "deletes it\n",
-                   MapName(id_).c_str(), s.ToString().c_str());
+      LogWarning(absl::StrCat("import of ", MapName(id_), ": the partial map was not deleted (",
+                              s.ToString(), "); the next start deletes it"));
     }
     created_ = false;
   }

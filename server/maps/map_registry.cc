@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "absl/strings/str_cat.h"
+#include "server/logging/log.h"
 
 namespace skimap::server {
 namespace {
@@ -126,7 +127,7 @@ absl::StatusOr<std::shared_ptr<LiveMap>> MapRegistry::Get(const std::string& id)
   if (!loaded.ok()) {
     loaded = absl::Status(
         loaded.code(), absl::StrCat("map ", MapName(id), " cannot be loaded: ", loaded.message()));
-    std::fprintf(stderr, "skimapd: %s\n", loaded.ToString().c_str());
+    LogError(loaded.ToString());
   }
   WriterLock lock(&mu_);
   auto it = maps_.find(id);
@@ -238,7 +239,7 @@ void MapRegistry::Maintain(uint64_t min_records) {
   for (Loaded& m : loaded) {
     if (m.map->records_since_snapshot() >= min_records) {
       if (absl::Status s = m.map->Snapshot(); !s.ok()) {
-        std::fprintf(stderr, "skimapd: %s\n", s.ToString().c_str());
+        LogError(s.ToString());
       }
     }
   }
@@ -288,8 +289,7 @@ void MapRegistry::Evict(const std::string& id, std::shared_ptr<LiveMap> map) {
     // Keep it: a reload would have to replay what the snapshot missed from a failing store.
     map->MarkEvicted(false);
     it->second.map = map;
-    std::fprintf(stderr, "skimapd: map %s not evicted: %s\n", MapName(id).c_str(),
-                 s.ToString().c_str());
+    LogWarning(absl::StrCat("map ", MapName(id), " not evicted: ", s.ToString()));
     return;
   }
   it->second.last_stats = std::move(stats);

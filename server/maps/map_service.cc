@@ -8,6 +8,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "server/logging/log.h"
 #include "server/page_token.h"
 
 namespace skimap::server {
@@ -23,6 +24,7 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
   r.map_defaults.store = o.store;
   r.map_defaults.journal_retain_bytes = o.journal_retain_bytes;
   r.map_defaults.classifier = o.classifier;
+  r.map_defaults.metrics = o.metrics;
   r.max_maps = o.max_maps;
   r.memory_budget_bytes = o.memory_budget_bytes;
   return r;
@@ -113,16 +115,15 @@ absl::Status MapService::Recover() {
   if (!stored.ok()) return stored.status();
   for (const storage::StoredMap& m : *stored) {
     auto skip = [&](const absl::Status& why) {
-      std::fprintf(stderr, "skimapd: map %s not loaded: %s\n", MapName(m.id).c_str(),
-                   why.ToString().c_str());
+      LogError(absl::StrCat("map ", MapName(m.id), " not loaded: ", why.ToString()));
     };
     // A fleet node does not own the maps of the store: it claims each on its first use (an
     // import left unfinished by a node that died is removed then).
     if (m.importing && options_.ownership != nullptr) continue;
     if (m.importing) {  // the process ended during the import: it never became a map
       absl::Status s = options_.store->DeleteMap(m.id);
-      std::fprintf(stderr, "skimapd: map %s: removing an import that did not finish%s%s\n",
-                   MapName(m.id).c_str(), s.ok() ? "" : ": ", s.ok() ? "" : s.ToString().c_str());
+      LogWarning(absl::StrCat("map ", MapName(m.id), ": removing an import that did not finish",
+                              s.ok() ? "" : ": ", s.ok() ? "" : s.ToString()));
       continue;
     }
     v1::MapOptions proto;
@@ -165,6 +166,7 @@ absl::StatusOr<v1::Map> MapService::CreateMap(const v1::CreateMapRequest& reques
     }
   }
   if (options_.ownership != nullptr) (void)ClaimMap(request.map_id());  // held since created
+  LogInfo(absl::StrCat("map ", MapName(request.map_id()), " created"));
   return Describe({.id = request.map_id(), .config = *config, .map = *map});
 }
 
@@ -252,10 +254,38 @@ absl::Status MapService::DeleteMap(const v1::DeleteMapRequest& request) {
                                                  s.message()));
     }
   }
+  LogInfo(absl::StrCat("map ", MapName(*id), " deleted"));
   return absl::OkStatus();
 }
 
+std::vector<Metrics::MapGauges> MapService::MetricGauges() const {
+  std::vector<Metrics::MapGauges> gauges;
+  registry_.ForEachLoaded([&gauges](LiveMap& map) {
+    const v1::MapStats stats = map.Stats();
+    gauges.push_back({.map = MapName(map.id()),
+                      .queued_writes = map.queued_writes(),
+                      .voxels = stats.voxels() + stats.free_voxels(),
+                      .memory_bytes = stats.memory_bytes(),
+                      .instances = stats.instances()});
+  });
+  return gauges;
+}
+
 void MapService::IntegrateFrame(std::shared_ptr<const v1::Frame> frame, LiveMap::FrameDone done) {
+  // Counted (metrics.h) and, when refused, logged with the reason, wherever it is answered.
+  done = [metrics = options_.metrics, map = frame->map().substr(0, 256),
+          sequence = frame->sequence(), done = std::move(done)](absl::StatusOr<v1::FrameAck> ack) {
+    if (ack.ok()) {
+      if (metrics != nullptr) metrics->FrameIngested();
+    } else {
+      if (metrics != nullptr) metrics->FrameRefused(ack.status());
+      Log({.level = LogLevel::kWarning,
+           .msg = absl::StrCat("frame ", sequence, " refused: ", ack.status().ToString()),
+           .map = map,
+           .code = static_cast<int>(ack.status().code())});
+    }
+    done(std::move(ack));
+  };
   const size_t bytes = frame->depth().size() + frame->color().size();
   if (bytes > options_.max_frame_bytes) {
     return done(absl::ResourceExhaustedError(

@@ -22,6 +22,7 @@
 #include "server/maps/map_importer.h"
 #include "server/maps/map_ownership.h"
 #include "server/maps/map_registry.h"
+#include "server/metrics/metrics.h"
 #include "server/work_queue.h"
 #include "skimap/mutex.h"
 #include "skimap/thread_pool.h"
@@ -70,6 +71,9 @@ class MapService {
     // request for a map claims it first (map_service_fleet.cc), maps are loaded on first
     // use, and ListMaps lists the store's maps with their owners. Null: a single server.
     MapOwnership* ownership = nullptr;
+    // Frame counters and latencies (metrics/metrics.h; not owned, outlives the service);
+    // null: none.
+    Metrics* metrics = nullptr;
   };
   explicit MapService(const Options& options);
   ~MapService();
@@ -84,6 +88,9 @@ class MapService {
   // Snapshots every map with journal records no snapshot covers (blocking). Also run by the
   // snapshot thread and at destruction.
   void SnapshotAll() { registry_.Maintain(1); }
+  // The gauges of every loaded map (queued writes, voxels, bytes, instances), for a
+  // metrics scrape.
+  std::vector<Metrics::MapGauges> MetricGauges() const;
 
   absl::StatusOr<v1::Map> CreateMap(const v1::CreateMapRequest& request);
   absl::StatusOr<v1::Map> GetMap(const v1::GetMapRequest& request) const;

@@ -3,6 +3,7 @@
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "server/logging/log.h"
 #include "server/maps/map_service.h"
 
 namespace skimap::server {
@@ -20,8 +21,7 @@ absl::Status MapService::ClaimMap(const std::string& id) const {
   if (!stored.ok()) return stored.status();
   if (stored->importing) {
     // An import whose node died before it finished: it never became a map.
-    std::fprintf(stderr, "skimapd: map %s: removing an import that did not finish\n",
-                 MapName(id).c_str());
+    LogWarning(absl::StrCat("map ", MapName(id), ": removing an import that did not finish"));
     (void)options_.store->DeleteMap(id);
     (void)registry_.Delete(id);
     return absl::NotFoundError(absl::StrCat("map ", MapName(id), " not found"));

@@ -14,6 +14,7 @@
 #ifndef TESTS_COMMON_SKIMAPD_PROCESS_H_
 #define TESTS_COMMON_SKIMAPD_PROCESS_H_
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -68,6 +69,10 @@ class SkimapdProcess {
     pid_ = fork();
     if (pid_ < 0) return absl::InternalError("fork failed");
     if (pid_ == 0) {
+      if (!stderr_path_.empty()) {
+        const int fd = open(stderr_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+        if (fd >= 0) dup2(fd, 2);
+      }
       std::vector<char*> argv;
       for (std::string& a : args) argv.push_back(a.data());
       argv.push_back(nullptr);
@@ -83,6 +88,9 @@ class SkimapdProcess {
       if (!Running()) return absl::FailedPreconditionError("skimapd exited at start");
     }
   }
+
+  // Appends the process's stderr to `path` (from the next Start on) instead of the test's.
+  void RedirectStderr(std::string path) { stderr_path_ = std::move(path); }
 
   // True while the process has not exited.
   bool Running() {
@@ -152,7 +160,7 @@ class SkimapdProcess {
   static inline int count_ = 0;
   const std::string binary_;
   const std::vector<std::string> flags_;
-  std::string address_, data_dir_;
+  std::string address_, data_dir_, stderr_path_;
   pid_t pid_ = -1;
   int http_port_ = 0;
 };

@@ -13,6 +13,7 @@
 #include "perception/objects/database_io.h"
 #include "perception/objects/features.h"
 #include "perception/objects/random_forest.h"
+#include "server/http/rest_messages.h"
 #include "server/maps/chunk_codec.h"
 #include "server/maps/frame_index.h"
 #include "server/maps/map_export.h"
@@ -277,6 +278,21 @@ void ObjectDatabaseSeeds() {
   Write("object_database", "one_object", s);
 }
 
+// REST JSON bodies (rest_json_fuzz.cc): route byte, then a body as clients send it.
+void RestJsonSeeds() {
+  Write(
+      "rest_json", "create",
+      Byte(0) + R"({"mapId": "kitchen", "options": {"resolution": 0.05, "carveFreeSpace": true}})");
+  Write("rest_json", "radius",
+        Byte(1) + R"({"center": {"x": 0.5, "y": -1, "z": 0.25}, "radius": 0.3, "maxResults": 10})");
+  v1::Frame frame = Frame("maps/fuzz", 7, v1::DEPTH_ENCODING_RAW_U16, v1::COLOR_ENCODING_NONE);
+  frame.clear_map();
+  Write("rest_json", "frame", Byte(2) + server::ToJson(frame));
+  Write("rest_json", "poses",
+        Byte(3) + R"({"updates": [{"sequence": "7", "pose": {"translation": {"x": 1},)"
+                  R"( "rotation": {"w": 1}}}]})");
+}
+
 }  // namespace
 }  // namespace skimap::fuzz
 
@@ -295,5 +311,6 @@ int main(int argc, char** argv) {
   ExportSeeds();
   ForestSeeds();
   ObjectDatabaseSeeds();
+  RestJsonSeeds();
   return 0;
 }
