@@ -12,6 +12,10 @@
 //   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | build | classifier
 //     (client/objects_command.h)
 //   skimap nodes                               a fleet's nodes and the maps each serves
+//
+// Authentication and TLS (docs/operations.md): --token_file=FILE (or $SKIMAP_TOKEN) sends
+// `authorization: Bearer <token>`; --tls_ca=PEM [--tls_cert=PEM --tls_key=PEM] connect
+// over TLS (with a client certificate: mTLS).
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -36,6 +40,14 @@ ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
 ABSL_FLAG(bool, with_journal, false,
           "export: also the map's journal (UpdatePoses then works on the imported frames)");
 ABSL_FLAG(std::string, as, "", "import: the new map's id (default: the id in the file)");
+ABSL_FLAG(std::string, token_file, "",
+          "file whose first line is the bearer token sent on every call (default: the "
+          "environment variable SKIMAP_TOKEN, if set)");
+ABSL_FLAG(std::string, tls_ca, "",
+          "TLS: PEM CA certificate(s) that signed skimapd's certificate (TLS is used when any "
+          "--tls_* flag is given; without --tls_ca, the system's roots)");
+ABSL_FLAG(std::string, tls_cert, "", "TLS: PEM client certificate for mTLS (with --tls_key)");
+ABSL_FLAG(std::string, tls_key, "", "TLS: PEM private key of --tls_cert");
 
 namespace {
 
@@ -210,10 +222,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", absl::ProgramUsageMessage().data());
     return 2;
   }
+  absl::StatusOr<skimap::client::Connection> connection =
+      skimap::client::Connection::FromFiles({.token_file = absl::GetFlag(FLAGS_token_file),
+                                             .tls_ca = absl::GetFlag(FLAGS_tls_ca),
+                                             .tls_cert = absl::GetFlag(FLAGS_tls_cert),
+                                             .tls_key = absl::GetFlag(FLAGS_tls_key)});
+  if (!connection.ok()) return Fail(connection.status());
   if (args[1] == "objects") {
-    return skimap::client::RunObjectsCommand(absl::GetFlag(FLAGS_server), args);
+    return skimap::client::RunObjectsCommand(absl::GetFlag(FLAGS_server), args, *connection);
   }
-  std::unique_ptr<MapClient> client = MapClient::Connect(absl::GetFlag(FLAGS_server));
+  std::unique_ptr<MapClient> client =
+      MapClient::Connect(absl::GetFlag(FLAGS_server), {.connection = *connection});
   const std::string& command = args[1];
   if (command == "maps") return Maps(*client, args);
   if (command == "nodes") return Nodes(*client);

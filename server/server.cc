@@ -11,21 +11,34 @@
 namespace skimap::server {
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
+  std::unique_ptr<auth::Authorizer> authorizer;
+  if (!options.auth_tokens_file.empty()) {
+    absl::StatusOr<std::unique_ptr<auth::Authorizer>> opened =
+        auth::Authorizer::Open(options.auth_tokens_file);
+    if (!opened.ok()) return opened.status();
+    authorizer = *std::move(opened);
+  }
   // Refuse a wrong address before anything is loaded or joined.
-  if (absl::Status s = CheckListenAddress(options.grpc.address, options.grpc.insecure, "--address");
+  const bool authenticated = authorizer != nullptr;
+  if (absl::Status s = CheckListenAddress(options.grpc.address,
+                                          options.grpc.insecure || authenticated, "--address");
       !s.ok()) {
     return s;
   }
   if (!options.http.address.empty()) {
-    if (absl::Status s =
-            CheckListenAddress(options.http.address, options.http.insecure, "--http_address");
+    if (absl::Status s = CheckListenAddress(
+            options.http.address, options.http.insecure || authenticated, "--http_address");
         !s.ok()) {
       return s;
     }
   }
   std::unique_ptr<Server> s(new Server());
+  s->auth_ = std::move(authorizer);
   MapService::Options maps = options.maps;
   GrpcServer::Options grpc = options.grpc;
+  grpc.auth = s->auth_.get();
+  HttpServer::Options http = options.http;
+  http.auth = s->auth_.get();
   if (!options.fleet.store_url.empty()) {
     const std::string& advertise = options.fleet.advertise_address;
     absl::StatusOr<std::unique_ptr<Fleet>> fleet = Fleet::Open(
@@ -38,6 +51,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
     s->fleet_ = *std::move(fleet);
     maps.store = &s->fleet_->store();
     maps.ownership = &s->fleet_->node();
+    s->fleet_->service().RequireAuth(s->auth_.get());
     grpc.more_services.push_back(&s->fleet_->service());
   } else if (options.map_store != nullptr) {
     maps.store = options.map_store;
@@ -68,11 +82,18 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   if (!options.http.address.empty()) {
     s->events_ = std::make_unique<MapEvents>(*s->maps_, options.events);
     absl::StatusOr<std::unique_ptr<HttpServer>> http =
-        HttpServer::Start(options.http, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
+        HttpServer::Start(http, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
     if (!http.ok()) return http.status();
     s->http_ = *std::move(http);
   }
   return s;
+}
+
+absl::Status Server::ReloadTokens() {
+  if (auth_ == nullptr) {
+    return absl::FailedPreconditionError("no token file to reload (skimapd --auth_tokens_file)");
+  }
+  return auth_->Reload();
 }
 
 void Server::Shutdown(absl::Duration grace) {

@@ -14,6 +14,7 @@
 #ifndef TESTS_COMMON_SKIMAPD_PROCESS_H_
 #define TESTS_COMMON_SKIMAPD_PROCESS_H_
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -45,6 +46,11 @@ class SkimapdProcess {
   SkimapdProcess(const SkimapdProcess&) = delete;
   SkimapdProcess& operator=(const SkimapdProcess&) = delete;
 
+  // How Start() connects to wait for the server (TLS, token: client/channel.h).
+  void set_connection(client::Connection connection) { connection_ = std::move(connection); }
+  // Sends the process's stdout and stderr to `path` (appended) instead of the test's.
+  void set_log_file(std::string path) { log_file_ = std::move(path); }
+
   // Forks skimapd on 127.0.0.1:<free port> with a fresh data dir (the same one again after
   // CrashAndRestart) and waits until it accepts calls (Unavailable after 20 s).
   absl::Status Start() { return StartOn("127.0.0.1"); }
@@ -67,13 +73,21 @@ class SkimapdProcess {
     pid_ = fork();
     if (pid_ < 0) return absl::InternalError("fork failed");
     if (pid_ == 0) {
+      if (!log_file_.empty()) {
+        const int fd = open(log_file_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0600);
+        if (fd >= 0) {
+          dup2(fd, 1);
+          dup2(fd, 2);
+        }
+      }
       std::vector<char*> argv;
       for (std::string& a : args) argv.push_back(a.data());
       argv.push_back(nullptr);
       execv(binary_.c_str(), argv.data());
       _exit(127);
     }
-    return client::MapClient::Connect(address_)->WaitForServer(absl::Seconds(20));
+    return client::MapClient::Connect(address_, {.connection = connection_})
+        ->WaitForServer(absl::Seconds(20));
   }
 
   // True while the process has not exited.
@@ -144,7 +158,8 @@ class SkimapdProcess {
   static inline int count_ = 0;
   const std::string binary_;
   const std::vector<std::string> flags_;
-  std::string address_, data_dir_;
+  std::string address_, data_dir_, log_file_;
+  client::Connection connection_;
   pid_t pid_ = -1;
   int http_port_ = 0;
 };
