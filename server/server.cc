@@ -37,8 +37,8 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   MapService::Options maps = options.maps;
   GrpcServer::Options grpc = options.grpc;
   grpc.auth = s->auth_.get();
-  HttpServer::Options http = options.http;
-  http.auth = s->auth_.get();
+  HttpServer::Options http_options = options.http;
+  http_options.auth = s->auth_.get();
   if (!options.fleet.store_url.empty()) {
     const std::string& advertise = options.fleet.advertise_address;
     absl::StatusOr<std::unique_ptr<Fleet>> fleet = Fleet::Open(
@@ -82,7 +82,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   if (!options.http.address.empty()) {
     s->events_ = std::make_unique<MapEvents>(*s->maps_, options.events);
     absl::StatusOr<std::unique_ptr<HttpServer>> http =
-        HttpServer::Start(http, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
+        HttpServer::Start(http_options, MakeRestRoutes(*s->maps_, *s->objects_, *s->events_));
     if (!http.ok()) return http.status();
     s->http_ = *std::move(http);
   }
