@@ -1,5 +1,9 @@
 #include "server/auth/tls_files.h"
 
+#include <openssl/bio.h>
+#include <openssl/pem.h>
+#include <openssl/x509.h>
+
 #include <fstream>
 #include <sstream>
 #include <tuple>
@@ -21,6 +25,30 @@ absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag) {
   return text.str();
 }
 
+// OK when `key_pem` is the private key of the first certificate of `cert_pem`.
+absl::Status CheckKeyMatches(const TlsFiles& files, const TlsFiles::Pem& pem) {
+  BIO* cert_bio = BIO_new_mem_buf(pem.cert.data(), static_cast<int>(pem.cert.size()));
+  X509* cert = PEM_read_bio_X509(cert_bio, nullptr, nullptr, nullptr);
+  BIO_free(cert_bio);
+  BIO* key_bio = BIO_new_mem_buf(pem.key.data(), static_cast<int>(pem.key.size()));
+  EVP_PKEY* key = PEM_read_bio_PrivateKey(key_bio, nullptr, nullptr, nullptr);
+  BIO_free(key_bio);
+  absl::Status status;
+  if (cert == nullptr) {
+    status = absl::InvalidArgumentError(
+        absl::StrCat("--tls_cert ", files.cert, ": holds no PEM certificate"));
+  } else if (key == nullptr) {
+    status = absl::InvalidArgumentError(
+        absl::StrCat("--tls_key ", files.key, ": holds no PEM private key (or an encrypted one)"));
+  } else if (X509_check_private_key(cert, key) != 1) {
+    status = absl::InvalidArgumentError(
+        absl::StrCat("--tls_key ", files.key, " is not the key of --tls_cert ", files.cert));
+  }
+  X509_free(cert);
+  EVP_PKEY_free(key);
+  return status;
+}
+
 }  // namespace
 
 absl::StatusOr<TlsFiles::Pem> TlsFiles::Read() const {
@@ -39,6 +67,7 @@ absl::StatusOr<TlsFiles::Pem> TlsFiles::Read() const {
     if (!text.ok()) return text.status();
     *out = *std::move(text);
   }
+  if (absl::Status s = CheckKeyMatches(*this, pem); !s.ok()) return s;
   return pem;
 }
 

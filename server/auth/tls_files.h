@@ -28,8 +28,9 @@ struct TlsFiles {
     std::string cert, key, client_ca;
   };
   // Checks the combination (InvalidArgument: a key without a cert or the reverse, a client
-  // CA without both) and reads the files (NotFound naming the flag and the path; the
-  // contents never appear in a message).
+  // CA without both), reads the files (NotFound naming the flag and the path; the contents
+  // never appear in a message) and checks that the key is the certificate's
+  // (InvalidArgument naming both flags).
   absl::StatusOr<Pem> Read() const;
 };
 

@@ -93,9 +93,10 @@ class AuthorizerTest : public ::testing::Test {
 };
 
 TEST_F(AuthorizerTest, MissingMalformedAndUnknownTokensAreUnauthenticated) {
-  for (const std::string header :
-       {"", "Basic YWRtaW46YWRtaW4=", "Bearer", "Bearer nope-not-a-known-token",
-        absl::StrCat("Bearer ", kAdmin, "x"), absl::StrCat("Bearer ", std::string(kAdmin, 10))}) {
+  for (const std::string& header : std::vector<std::string>{
+           "", "Basic YWRtaW46YWRtaW4=", "Bearer", "Bearer nope-not-a-known-token",
+           absl::StrCat("Bearer ", kAdmin, "x"),
+           absl::StrCat("Bearer ", std::string(kAdmin, 10))}) {
     absl::StatusOr<Grant> grant = auth_->Authenticate(header);
     ASSERT_FALSE(grant.ok()) << header;
     EXPECT_EQ(grant.status().code(), absl::StatusCode::kUnauthenticated) << header;
