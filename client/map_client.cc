@@ -41,13 +41,6 @@ std::optional<v1::MapRedirect> RedirectOf(const absl::Status& status) {
   return r;
 }
 
-std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int max_message_bytes) {
-  grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(max_message_bytes);
-  args.SetMaxSendMessageSize(max_message_bytes);
-  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
-}
-
 std::unique_ptr<MapClient> MapClient::Connect(const std::string& target, const Options& options) {
   return std::unique_ptr<MapClient>(new MapClient(target, options));
 }
@@ -55,7 +48,7 @@ std::unique_ptr<MapClient> MapClient::Connect(const std::string& target, const O
 MapClient::MapClient(const std::string& target, const Options& options)
     : options_(options),
       target_(target),
-      channel_(MakeChannel(target, options.max_message_bytes)),
+      channel_(MakeChannel(target, options.max_message_bytes, options.connection)),
       stub_(v1::MapService::NewStub(channel_)) {}
 
 v1::MapService::Stub* MapClient::StubForMap(const std::string& name) {
@@ -71,7 +64,8 @@ v1::MapService::Stub* MapClient::Follow(const grpc::Status& status, int* hops) {
   std::lock_guard<std::mutex> lock(mu_);
   std::unique_ptr<v1::MapService::Stub>& stub = stubs_[r->address()];
   if (stub == nullptr) {
-    stub = v1::MapService::NewStub(MakeChannel(r->address(), options_.max_message_bytes));
+    stub = v1::MapService::NewStub(
+        MakeChannel(r->address(), options_.max_message_bytes, options_.connection));
   }
   owners_[r->map()] = stub.get();
   return stub.get();

@@ -32,6 +32,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "client/channel.h"
 #include "client/frame_stream.h"
 #include "skimap/v1/fleet.grpc.pb.h"
 #include "skimap/v1/map_service.grpc.pb.h"
@@ -45,6 +46,8 @@ class MapClient {
     absl::Duration timeout = absl::Seconds(60);           // deadline of each unary call
     absl::Duration transfer_timeout = absl::Minutes(30);  // ExportMap / ImportMap calls
     int max_redirects = 3;  // fleet redirects followed per call; 0 = report them
+    // TLS and the bearer token (channel.h), also used for the nodes redirects lead to.
+    Connection connection;
   };
   // Creates a channel to `target` (host:port); does not wait for the server.
   static std::unique_ptr<MapClient> Connect(const std::string& target, const Options& options);
@@ -94,6 +97,7 @@ class MapClient {
   absl::StatusOr<v1::ListNodesResponse> ListNodes();
 
   v1::MapService::Stub& stub() { return *stub_; }
+  const Options& options() const { return options_; }
   const std::string& target() const { return target_; }
 
  private:
@@ -126,10 +130,6 @@ std::optional<v1::MapRedirect> RedirectOf(const absl::Status& status);
 // grpc::Status -> absl::Status (same codes; a fleet redirect in the details is kept as the
 // status's payload, see RedirectOf).
 absl::Status FromGrpcStatus(const grpc::Status& status);
-
-// An insecure channel to `target` (host:port) allowing messages up to `max_message_bytes`
-// each way; shared by MapClient and ObjectClient.
-std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int max_message_bytes);
 
 }  // namespace skimap::client
 

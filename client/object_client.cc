@@ -7,8 +7,8 @@ namespace skimap::client {
 
 std::unique_ptr<ObjectClient> ObjectClient::Connect(const std::string& target,
                                                     const Options& options) {
-  return std::unique_ptr<ObjectClient>(
-      new ObjectClient(MakeChannel(target, options.max_message_bytes), options));
+  return std::unique_ptr<ObjectClient>(new ObjectClient(
+      MakeChannel(target, options.max_message_bytes, options.connection), options));
 }
 
 ObjectClient::ObjectClient(std::shared_ptr<grpc::Channel> channel, const Options& options)

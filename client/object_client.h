@@ -22,6 +22,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "client/channel.h"
 #include "skimap/v1/objects.grpc.pb.h"
 
 namespace skimap::client {
@@ -32,6 +33,7 @@ class ObjectClient {
     int max_message_bytes = 80 << 20;                  // match skimapd's --max_message_mb
     absl::Duration timeout = absl::Seconds(60);        // deadline of each unary call
     absl::Duration train_timeout = absl::Minutes(30);  // deadline of a TrainObject stream
+    Connection connection;                             // TLS and the bearer token (channel.h)
   };
   // Creates a channel to `target` (host:port); does not wait for the server.
   static std::unique_ptr<ObjectClient> Connect(const std::string& target, const Options& options);

@@ -154,8 +154,9 @@ absl::StatusOr<std::string> ObjectArg(const std::vector<std::string>& args) {
 
 }  // namespace
 
-int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args) {
-  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server);
+int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args,
+                      const Connection& connection) {
+  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server, {.connection = connection});
   const std::string verb = args.size() > 2 ? args[2] : "ls";
   if (verb == "ls") {
     absl::StatusOr<std::vector<v1::Object>> objects = client->ListAllObjects();

@@ -19,11 +19,14 @@
 #include <string>
 #include <vector>
 
+#include "client/channel.h"
+
 namespace skimap::client {
 
 // args: the positional arguments (args[0] the program, args[1] "objects", args[2] the verb).
 // Returns the process exit code (0 OK, 1 error, 2 usage), printing errors to stderr.
-int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args);
+int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args,
+                      const Connection& connection = {});
 
 }  // namespace skimap::client
 

@@ -17,6 +17,10 @@
 //     (client/instances_command.h); `stream --recognition=newest` creates a map with it on
 //   skimap eval DATASET [--scenes=..] [--every=N] [--max_frames=N] [--csv=FILE]
 //     recognition precision / recall on a BOP dataset's test scenes (client/eval_command.h)
+//
+// Authentication and TLS (docs/operations.md): --token_file=FILE (or $SKIMAP_TOKEN) sends
+// `authorization: Bearer <token>`; --tls_ca=PEM [--tls_cert=PEM --tls_key=PEM] connect
+// over TLS (with a client certificate: mTLS).
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -61,6 +65,14 @@ ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this 
 ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
 ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
 ABSL_FLAG(bool, keep_maps, false, "eval: keep the eval_<scene> maps");
+ABSL_FLAG(std::string, token_file, "",
+          "file whose first line is the bearer token sent on every call (default: the "
+          "environment variable SKIMAP_TOKEN, if set)");
+ABSL_FLAG(std::string, tls_ca, "",
+          "TLS: PEM CA certificate(s) that signed skimapd's certificate (TLS is used when any "
+          "--tls_* flag is given; without --tls_ca, the system's roots)");
+ABSL_FLAG(std::string, tls_cert, "", "TLS: PEM client certificate for mTLS (with --tls_key)");
+ABSL_FLAG(std::string, tls_key, "", "TLS: PEM private key of --tls_cert");
 
 namespace {
 
@@ -240,10 +252,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", absl::ProgramUsageMessage().data());
     return 2;
   }
+  absl::StatusOr<skimap::client::Connection> connection =
+      skimap::client::Connection::FromFiles({.token_file = absl::GetFlag(FLAGS_token_file),
+                                             .tls_ca = absl::GetFlag(FLAGS_tls_ca),
+                                             .tls_cert = absl::GetFlag(FLAGS_tls_cert),
+                                             .tls_key = absl::GetFlag(FLAGS_tls_key)});
+  if (!connection.ok()) return Fail(connection.status());
   if (args[1] == "objects") {
-    return skimap::client::RunObjectsCommand(absl::GetFlag(FLAGS_server), args);
+    return skimap::client::RunObjectsCommand(absl::GetFlag(FLAGS_server), args, *connection);
   }
-  std::unique_ptr<MapClient> client = MapClient::Connect(absl::GetFlag(FLAGS_server));
+  std::unique_ptr<MapClient> client =
+      MapClient::Connect(absl::GetFlag(FLAGS_server), {.connection = *connection});
   const std::string& command = args[1];
   if (command == "maps") return Maps(*client, args);
   if (command == "nodes") return Nodes(*client);

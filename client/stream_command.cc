@@ -111,7 +111,7 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
       break;
     }
     if (hop >= 3) return absl::UnavailableError("stream: more than 3 redirects");
-    owner = MapClient::Connect(redirect->address());
+    owner = MapClient::Connect(redirect->address(), client.options());
     target = owner.get();
   }
   if (!options.quiet) std::fprintf(stderr, "\n");

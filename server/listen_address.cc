@@ -28,8 +28,9 @@ absl::Status CheckListenAddress(const std::string& address, bool insecure, const
   if (insecure || IsLoopbackAddress(address)) return absl::OkStatus();
   return absl::FailedPreconditionError(absl::StrCat(
       flag, " ", address,
-      " listens beyond loopback and skimapd has no authentication yet; pass --insecure to "
-      "allow anyone who reaches the port to read and write every map"));
+      " listens beyond loopback without authentication; give --auth_tokens_file (bearer "
+      "tokens, docs/operations.md) or pass --insecure to allow anyone who reaches the port to "
+      "read and write every map"));
 }
 
 }  // namespace skimap::server

@@ -4,8 +4,8 @@
 //   IsLoopbackAddress("0.0.0.0:50051")    // false: every interface
 //
 // skimapd listens on loopback unless told otherwise: binding any other address needs
-// `insecure` (skimapd --insecure, for the gRPC and the HTTP address alike) until
-// authentication exists.
+// authentication (skimapd --auth_tokens_file) or `insecure` (skimapd --insecure, for the
+// gRPC and the HTTP address alike).
 //
 // Thread safety: pure functions.
 #ifndef SERVER_LISTEN_ADDRESS_H_
@@ -19,8 +19,9 @@ namespace skimap::server {
 
 bool IsLoopbackAddress(const std::string& address);
 
-// OK for a loopback address, or any address when `insecure`; FailedPrecondition naming
-// the address, its `flag` (e.g. "--http_address") and --insecure otherwise.
+// OK for a loopback address, or any address when `insecure` (true also when auth is
+// configured); FailedPrecondition naming the address, its `flag` (e.g. "--http_address"),
+// --auth_tokens_file and --insecure otherwise.
 absl::Status CheckListenAddress(const std::string& address, bool insecure, const char* flag);
 
 }  // namespace skimap::server

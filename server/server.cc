@@ -11,24 +11,35 @@
 namespace skimap::server {
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
+  std::unique_ptr<auth::Authorizer> authorizer;
+  if (!options.auth_tokens_file.empty()) {
+    absl::StatusOr<std::unique_ptr<auth::Authorizer>> opened =
+        auth::Authorizer::Open(options.auth_tokens_file);
+    if (!opened.ok()) return opened.status();
+    authorizer = *std::move(opened);
+  }
   // Refuse a wrong address before anything is loaded or joined.
-  if (absl::Status s = CheckListenAddress(options.grpc.address, options.grpc.insecure, "--address");
+  const bool authenticated = authorizer != nullptr;
+  if (absl::Status s = CheckListenAddress(options.grpc.address,
+                                          options.grpc.insecure || authenticated, "--address");
       !s.ok()) {
     return s;
   }
   if (!options.http.address.empty()) {
-    if (absl::Status s =
-            CheckListenAddress(options.http.address, options.http.insecure, "--http_address");
+    if (absl::Status s = CheckListenAddress(
+            options.http.address, options.http.insecure || authenticated, "--http_address");
         !s.ok()) {
       return s;
     }
   }
   std::unique_ptr<Server> s(new Server());
   s->metrics_ = std::make_unique<Metrics>();
+  s->auth_ = std::move(authorizer);
   MapService::Options maps = options.maps;
   maps.metrics = s->metrics_.get();
   GrpcServer::Options grpc = options.grpc;
   grpc.metrics = s->metrics_.get();
+  grpc.auth = s->auth_.get();
   if (!options.fleet.store_url.empty()) {
     const std::string& advertise = options.fleet.advertise_address;
     absl::StatusOr<std::unique_ptr<Fleet>> fleet = Fleet::Open(
@@ -41,6 +52,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
     s->fleet_ = *std::move(fleet);
     maps.store = &s->fleet_->store();
     maps.ownership = &s->fleet_->node();
+    s->fleet_->service().RequireAuth(s->auth_.get());
     grpc.more_services.push_back(&s->fleet_->service());
   } else if (options.map_store != nullptr) {
     maps.store = options.map_store;
@@ -75,12 +87,21 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
     routes.push_back(MetricsRoute(*s->metrics_));
     HttpServer::Options http_options = options.http;
     http_options.metrics = s->metrics_.get();
+    http_options.auth = s->auth_.get();
+    http_options.metrics_public = options.metrics_public;
     absl::StatusOr<std::unique_ptr<HttpServer>> http =
         HttpServer::Start(http_options, std::move(routes));
     if (!http.ok()) return http.status();
     s->http_ = *std::move(http);
   }
   return s;
+}
+
+absl::Status Server::ReloadTokens() {
+  if (auth_ == nullptr) {
+    return absl::FailedPreconditionError("no token file to reload (skimapd --auth_tokens_file)");
+  }
+  return auth_->Reload();
 }
 
 void Server::Shutdown(absl::Duration grace) {

@@ -22,6 +22,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "server/auth/authorizer.h"
 #include "server/fleet/fleet.h"
 #include "server/grpc/grpc_server.h"
 #include "server/http/http_server.h"
@@ -66,12 +67,16 @@ class Server {
     // authentication is configured (skimapd --metrics_public); false: it takes a token
     // like the other routes. The route exists whenever HTTP is on.
     bool metrics_public = true;
+    // Bearer tokens (auth/token_file.h) for both adapters; "" = no authentication (then
+    // only loopback addresses, or `insecure`). With tokens, any address may be bound. TLS:
+    // grpc.tls and http.tls.
+    std::string auth_tokens_file;
   };
 
-  // Checks both listen addresses, joins the fleet, opens the store, builds the cores
-  // (loading the stored maps and objects), then starts the adapters. The first error:
-  // FailedPrecondition for an address beyond loopback without `insecure`, the store's or
-  // the object database's, Unavailable for an address that cannot be bound.
+  // Reads the token file, checks both listen addresses, joins the fleet, opens the store, builds
+  // the cores (loading the stored maps and objects), then starts the adapters. The first error: the
+  // token file's error, FailedPrecondition for an address beyond loopback without `insecure` or
+  // tokens, the store's or the object database's, Unavailable for an address that cannot be bound.
   static absl::StatusOr<std::unique_ptr<Server>> Start(const Options& options);
   // Shutdown(), then the cores are drained and snapshot, then the fleet node leaves.
   ~Server();
@@ -86,6 +91,9 @@ class Server {
   Metrics& metrics() { return *metrics_; }
   // The fleet membership, or null on a single server.
   Fleet* fleet() { return fleet_.get(); }
+  // Reads the token file again (skimapd on SIGHUP): OK, or the error (naming the file and
+  // line, never a token) and the previous tokens stay. FailedPrecondition without tokens.
+  [[nodiscard]] absl::Status ReloadTokens();
 
   // Stops both adapters: no new requests; event streams end at once; open gRPC calls are
   // cancelled after `grace`.
@@ -96,6 +104,7 @@ class Server {
 
   // Declared in dependency order: destroyed from the adapters up to the fleet.
   std::unique_ptr<Metrics> metrics_;          // outlives everything that reports to it
+  std::unique_ptr<auth::Authorizer> auth_;    // outlives the adapters; null without tokens
   std::unique_ptr<Fleet> fleet_;              // outlives the store it holds and the cores
   std::unique_ptr<storage::MapStore> store_;  // outlives the cores
   std::unique_ptr<ObjectService> objects_;    // outlives maps_: maps ask it for the classifier

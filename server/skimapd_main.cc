@@ -12,6 +12,12 @@
 //           [--log_format=text|json] [--metrics_public=true]
 //           [--store=postgresql://user@host:port/db [--advertise_address=HOST:PORT]
 //            [--lease_ttl_ms=6000]]
+//           [--auth_tokens_file=FILE] [--tls_cert=PEM --tls_key=PEM [--tls_client_ca=PEM]]
+//
+// With --auth_tokens_file every call but health needs a bearer token of the right role
+// (docs/operations.md, "Authentication"); SIGHUP reads the file again (a file that does not
+// parse keeps the previous tokens). --tls_cert/--tls_key serve gRPC over TLS and REST over
+// HTTPS; --tls_client_ca requires client certificates from that CA on both (mTLS).
 //
 // With --store=postgresql://... the server is one node of a fleet sharing that store
 // (docs/operations.md): it serves the maps whose lease it holds, takes the lease of a map
@@ -39,10 +45,20 @@
 #include "server/server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
-          "gRPC listen address (host:port); beyond loopback only with --insecure");
+          "gRPC listen address (host:port); beyond loopback only with --auth_tokens_file or "
+          "--insecure");
 ABSL_FLAG(bool, insecure, false,
           "allow --address and --http_address beyond loopback without authentication (anyone "
           "who reaches the port can read and write every map)");
+ABSL_FLAG(std::string, auth_tokens_file, "",
+          "bearer tokens, one per line: <token> <role: read|write|admin> [<map>,...]; every "
+          "call but health then needs one (SIGHUP reloads the file); empty: no authentication");
+ABSL_FLAG(std::string, tls_cert, "",
+          "PEM certificate chain: gRPC over TLS and REST over HTTPS (with --tls_key)");
+ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert");
+ABSL_FLAG(std::string, tls_client_ca, "",
+          "PEM CA certificates: clients must present a certificate signed by them (mTLS, gRPC "
+          "and HTTPS)");
 ABSL_FLAG(std::string, http_address, "127.0.0.1:8080",
           "REST (HTTP/1.1 + JSON) listen address (host:port); empty: no HTTP; beyond "
           "loopback only with --insecure");
@@ -122,6 +138,7 @@ int main(int argc, char** argv) {
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
+  sigaddset(&stop_signals, SIGHUP);  // reloads the token file
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   std::error_code ec;
@@ -150,6 +167,11 @@ int main(int argc, char** argv) {
   options.grpc.max_message_bytes = max_message_mb << 20;
   options.grpc.map_service.max_in_flight = absl::GetFlag(FLAGS_max_in_flight);
   options.grpc.map_service.max_streams_per_client = absl::GetFlag(FLAGS_max_streams_per_client);
+  options.auth_tokens_file = absl::GetFlag(FLAGS_auth_tokens_file);
+  options.grpc.tls = {.cert = absl::GetFlag(FLAGS_tls_cert),
+                      .key = absl::GetFlag(FLAGS_tls_key),
+                      .client_ca = absl::GetFlag(FLAGS_tls_client_ca)};
+  options.http.tls = options.grpc.tls;
   options.http.address = absl::GetFlag(FLAGS_http_address);
   options.http.insecure = absl::GetFlag(FLAGS_insecure);
   options.http.max_body_bytes = size_t(absl::GetFlag(FLAGS_http_max_body_mb)) << 20;
@@ -206,8 +228,27 @@ int main(int argc, char** argv) {
   }
   std::fflush(stdout);
 
+  if (!options.auth_tokens_file.empty()) {
+    std::printf("skimapd: bearer tokens from %s\n", options.auth_tokens_file.c_str());
+  }
+  if (options.grpc.tls.enabled()) {
+    std::printf("skimapd: TLS on gRPC and REST%s\n",
+                options.grpc.tls.client_ca.empty() ? "" : ", client certificates required");
+  }
+  std::fflush(stdout);
+
   int signal_number = 0;
-  sigwait(&stop_signals, &signal_number);
+  for (;;) {
+    sigwait(&stop_signals, &signal_number);
+    if (signal_number != SIGHUP) break;
+    // Messages name the file and the line, never a token.
+    if (absl::Status s = (*server)->ReloadTokens(); !s.ok()) {
+      std::fprintf(stderr, "skimapd: SIGHUP: %s; the previous tokens stay\n", s.ToString().c_str());
+    } else {
+      std::printf("skimapd: SIGHUP: tokens reloaded from %s\n", options.auth_tokens_file.c_str());
+      std::fflush(stdout);
+    }
+  }
   std::printf("skimapd: %s, shutting down\n", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
   std::fflush(stdout);
   (*server)->Shutdown();

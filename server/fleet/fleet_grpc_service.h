@@ -7,6 +7,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "server/auth/authorizer.h"
 #include "server/fleet/fleet_node.h"
 #include "skimap/v1/fleet.grpc.pb.h"
 
@@ -16,6 +17,9 @@ class GrpcFleetService final : public v1::FleetService::CallbackService {
  public:
   // REQUIRES: `node` outlives this service and its calls.
   explicit GrpcFleetService(FleetNode* node) : node_(node) {}
+  // Calls need the read role of `auth` (not owned; outlives the service). REQUIRES: called
+  // before the gRPC server that serves this service starts.
+  void RequireAuth(const auth::Authorizer* auth) { auth_ = auth; }
 
   grpc::ServerUnaryReactor* ListNodes(grpc::CallbackServerContext* ctx,
                                       const v1::ListNodesRequest* request,
@@ -23,6 +27,7 @@ class GrpcFleetService final : public v1::FleetService::CallbackService {
 
  private:
   FleetNode* const node_;
+  const auth::Authorizer* auth_ = nullptr;
 };
 
 }  // namespace skimap::server

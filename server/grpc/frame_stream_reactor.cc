@@ -7,8 +7,11 @@
 namespace skimap::server {
 
 FrameStreamReactor::FrameStreamReactor(MapService* core, int max_in_flight,
-                                       StreamLimiter::Slot slot)
-    : core_(core), max_in_flight_(max_in_flight < 1 ? 1 : max_in_flight), slot_(std::move(slot)) {
+                                       StreamLimiter::Slot slot, auth::Grant grant)
+    : core_(core),
+      max_in_flight_(max_in_flight < 1 ? 1 : max_in_flight),
+      slot_(std::move(slot)),
+      grant_(std::move(grant)) {
   Step();
 }
 
@@ -27,6 +30,10 @@ void FrameStreamReactor::OnReadDone(bool ok) {
   if (frame) {
     ScopedRequest scope(request_);
     const uint64_t sequence = frame->sequence();
+    if (!grant_.AllowsMap(frame->map())) {
+      OnFrameDone(sequence, grant_.CheckMap(auth::Role::kWrite, frame->map()));
+      return;  // OnFrameDone stepped
+    }
     core_->IntegrateFrame(std::move(frame), [this, sequence](absl::StatusOr<v1::FrameAck> r) {
       OnFrameDone(sequence, std::move(r));
     });

@@ -18,6 +18,7 @@
 #include <memory>
 
 #include "absl/base/thread_annotations.h"
+#include "server/auth/grant.h"
 #include "server/grpc/stream_limiter.h"
 #include "server/logging/request_context.h"
 #include "server/maps/map_service.h"
@@ -29,8 +30,10 @@ namespace skimap::server {
 class FrameStreamReactor final : public grpc::ServerBidiReactor<v1::Frame, v1::FrameAck> {
  public:
   // REQUIRES: core outlives the call; max_in_flight >= 1. Deletes itself in OnDone,
-  // releasing `slot` (the client's stream count) with it.
-  FrameStreamReactor(MapService* core, int max_in_flight, StreamLimiter::Slot slot = {});
+  // releasing `slot` (the client's stream count) with it. A frame for a map outside
+  // `grant`'s scope is not integrated: its ack carries PERMISSION_DENIED.
+  FrameStreamReactor(MapService* core, int max_in_flight, StreamLimiter::Slot slot = {},
+                     auth::Grant grant = auth::Grant::Everything());
 
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
@@ -46,6 +49,7 @@ class FrameStreamReactor final : public grpc::ServerBidiReactor<v1::Frame, v1::F
   const std::shared_ptr<const RequestContext> request_ = CurrentRequest();
   const int max_in_flight_;
   StreamLimiter::Slot slot_;
+  const auth::Grant grant_;
   RwLock mu_;
   std::shared_ptr<v1::Frame> reading_ ABSL_GUARDED_BY(mu_);
   v1::FrameAck writing_ ABSL_GUARDED_BY(mu_);

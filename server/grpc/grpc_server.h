@@ -19,6 +19,8 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "server/auth/authorizer.h"
+#include "server/auth/tls_files.h"
 #include "server/grpc/grpc_service.h"
 #include "server/grpc/object_grpc_service.h"
 #include "server/maps/map_service.h"
@@ -30,11 +32,18 @@ namespace skimap::server {
 class GrpcServer {
  public:
   struct Options {
-    // host:port; port 0 = any free port. Loopback unless `insecure` (listen_address.h).
+    // host:port; port 0 = any free port. Loopback unless `insecure` or `auth`
+    // (listen_address.h).
     std::string address = "127.0.0.1:50051";
-    // Allows an address beyond loopback. There is no authentication yet: anyone who can
-    // reach the port can read and write every map.
+    // Allows an address beyond loopback without `auth`: anyone who can reach the port can
+    // read and write every map.
     bool insecure = false;
+    // Bearer-token authorization of every call but health and reflection (not owned;
+    // outlives the server); null = none.
+    const auth::Authorizer* auth = nullptr;
+    // TLS (grpc::SslServerCredentials) with tls.cert and tls.key; client certificates
+    // required and verified against tls.client_ca when given (mTLS). Plain text without.
+    auth::TlsFiles tls;
     // The MapService adapter: in-flight frames per stream, streams per client, ...
     GrpcMapService::Options map_service;
     // Largest gRPC message accepted or sent. Frames with images above the map service's
@@ -50,8 +59,9 @@ class GrpcServer {
   };
 
   // Binds and starts serving `maps` and `objects` (not owned; REQUIRES: both outlive the
-  // server). FailedPrecondition for an address beyond loopback without `insecure`;
-  // Unavailable if the address cannot be bound.
+  // server). FailedPrecondition for an address beyond loopback without `insecure` or
+  // `auth`; the TLS files' errors (TlsFiles::Read); Unavailable if the address cannot be
+  // bound.
   static absl::StatusOr<std::unique_ptr<GrpcServer>> Start(const Options& options, MapService* maps,
                                                            ObjectService* objects);
   ~GrpcServer();  // Shutdown()

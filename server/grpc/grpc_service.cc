@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "server/grpc/frame_stream_reactor.h"
+#include "server/grpc/grpc_auth.h"
 #include "server/grpc/grpc_status.h"
 #include "server/grpc/instance_watch_reactor.h"
 #include "server/grpc/map_transfer_reactors.h"
@@ -11,6 +12,7 @@
 namespace skimap::server {
 namespace {
 
+using auth::Role;
 using grpc::CallbackServerContext;
 using grpc::ServerUnaryReactor;
 
@@ -42,35 +44,41 @@ class VoxelPageWriter final : public grpc::ServerWriteReactor<v1::GetVoxelsRespo
   v1::GetVoxelsResponse page_;
 };
 
-// A StreamFrames call refused before it starts: finishes at once with `status`.
-class RefusedFrameStream final : public grpc::ServerBidiReactor<v1::Frame, v1::FrameAck> {
- public:
-  explicit RefusedFrameStream(const grpc::Status& status) { Finish(status); }
-  void OnDone() override { delete this; }
-};
-
 }  // namespace
+
+absl::Status GrpcMapService::Allow(CallbackServerContext* ctx, Role needed,
+                                   absl::string_view resource) const {
+  return CheckMapCall(options_.auth, ctx, needed, resource).status();
+}
 
 ServerUnaryReactor* GrpcMapService::CreateMap(CallbackServerContext* ctx,
                                               const v1::CreateMapRequest* request,
                                               v1::Map* response) {
+  if (absl::Status s = Allow(ctx, Role::kWrite, "maps/" + request->map_id()); !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, core_->CreateMap(*request), response);
 }
 
 ServerUnaryReactor* GrpcMapService::GetMap(CallbackServerContext* ctx,
                                            const v1::GetMapRequest* request, v1::Map* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->name()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->GetMap(*request), response);
 }
 
 ServerUnaryReactor* GrpcMapService::ListMaps(CallbackServerContext* ctx,
                                              const v1::ListMapsRequest* request,
                                              v1::ListMapsResponse* response) {
-  return Reply(ctx, core_->ListMaps(*request), response);
+  absl::StatusOr<auth::Grant> grant = CheckCall(options_.auth, ctx, Role::kRead);
+  if (!grant.ok()) return Refuse(ctx, grant.status());
+  absl::StatusOr<v1::ListMapsResponse> maps = core_->ListMaps(*request);
+  if (maps.ok()) auth::KeepMapsInScope(*grant, &*maps);
+  return Reply(ctx, std::move(maps), response);
 }
 
 ServerUnaryReactor* GrpcMapService::DeleteMap(CallbackServerContext* ctx,
                                               const v1::DeleteMapRequest* request,
                                               v1::DeleteMapResponse* response) {
+  if (absl::Status s = Allow(ctx, Role::kAdmin, request->name()); !s.ok()) return Refuse(ctx, s);
   ServerUnaryReactor* reactor = ctx->DefaultReactor();
   reactor->Finish(ToGrpcStatus(core_->DeleteMap(*request)));
   return reactor;
@@ -78,14 +86,19 @@ ServerUnaryReactor* GrpcMapService::DeleteMap(CallbackServerContext* ctx,
 
 grpc::ServerBidiReactor<v1::Frame, v1::FrameAck>* GrpcMapService::StreamFrames(
     CallbackServerContext* ctx) {
+  absl::StatusOr<auth::Grant> grant = CheckCall(options_.auth, ctx, Role::kWrite);
+  if (!grant.ok())
+    return new RefusedCall<grpc::ServerBidiReactor<v1::Frame, v1::FrameAck>>(grant.status());
   absl::StatusOr<StreamLimiter::Slot> slot = streams_.Acquire(ctx->peer());
-  if (!slot.ok()) return new RefusedFrameStream(ToGrpcStatus(slot.status()));
-  return new FrameStreamReactor(core_, options_.max_in_flight, *std::move(slot));
+  if (!slot.ok())
+    return new RefusedCall<grpc::ServerBidiReactor<v1::Frame, v1::FrameAck>>(slot.status());
+  return new FrameStreamReactor(core_, options_.max_in_flight, *std::move(slot), *std::move(grant));
 }
 
 ServerUnaryReactor* GrpcMapService::IntegrateFrame(CallbackServerContext* ctx,
                                                    const v1::Frame* request,
                                                    v1::FrameAck* response) {
+  if (absl::Status s = Allow(ctx, Role::kWrite, request->map()); !s.ok()) return Refuse(ctx, s);
   ServerUnaryReactor* reactor = ctx->DefaultReactor();
   core_->IntegrateFrame(std::make_shared<v1::Frame>(*request),
                         [reactor, response](absl::StatusOr<v1::FrameAck> ack) {
@@ -98,6 +111,7 @@ ServerUnaryReactor* GrpcMapService::IntegrateFrame(CallbackServerContext* ctx,
 ServerUnaryReactor* GrpcMapService::UpdatePoses(CallbackServerContext* ctx,
                                                 const v1::UpdatePosesRequest* request,
                                                 v1::UpdatePosesResponse* response) {
+  if (absl::Status s = Allow(ctx, Role::kWrite, request->map()); !s.ok()) return Refuse(ctx, s);
   ServerUnaryReactor* reactor = ctx->DefaultReactor();
   core_->UpdatePoses(std::make_shared<v1::UpdatePosesRequest>(*request),
                      [reactor, response](absl::StatusOr<v1::UpdatePosesResponse> r) {
@@ -110,51 +124,65 @@ ServerUnaryReactor* GrpcMapService::UpdatePoses(CallbackServerContext* ctx,
 ServerUnaryReactor* GrpcMapService::GetOccupancyGrid(CallbackServerContext* ctx,
                                                      const v1::GetOccupancyGridRequest* request,
                                                      v1::OccupancyGrid* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->GetOccupancyGrid(*request), response);
 }
 
 ServerUnaryReactor* GrpcMapService::GetHeightMap(CallbackServerContext* ctx,
                                                  const v1::GetHeightMapRequest* request,
                                                  v1::HeightMap* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->GetHeightMap(*request), response);
 }
 
 ServerUnaryReactor* GrpcMapService::GetVoxels(CallbackServerContext* ctx,
                                               const v1::GetVoxelsRequest* request,
                                               v1::GetVoxelsResponse* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->GetVoxels(*request), response);
 }
 
 grpc::ServerWriteReactor<v1::GetVoxelsResponse>* GrpcMapService::StreamVoxels(
     CallbackServerContext* ctx, const v1::GetVoxelsRequest* request) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) {
+    return new RefusedCall<grpc::ServerWriteReactor<v1::GetVoxelsResponse>>(s);
+  }
   return new VoxelPageWriter(core_, *request);
 }
 
 ServerUnaryReactor* GrpcMapService::RadiusSearch(CallbackServerContext* ctx,
                                                  const v1::RadiusSearchRequest* request,
                                                  v1::RadiusSearchResponse* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->RadiusSearch(*request), response);
 }
 
 grpc::ServerWriteReactor<v1::ExportChunk>* GrpcMapService::ExportMap(
     CallbackServerContext* ctx, const v1::ExportMapRequest* request) {
+  if (absl::Status s = Allow(ctx, Role::kAdmin, request->name()); !s.ok()) {
+    return new RefusedCall<grpc::ServerWriteReactor<v1::ExportChunk>>(s);
+  }
   return new ExportWriteReactor(core_, &blocking_, *request);
 }
 
 grpc::ServerReadReactor<v1::ExportChunk>* GrpcMapService::ImportMap(CallbackServerContext* ctx,
                                                                     v1::Map* response) {
-  return new ImportReadReactor(core_, &blocking_, ctx, response);
+  absl::StatusOr<auth::Grant> grant = CheckCall(options_.auth, ctx, Role::kWrite);
+  if (!grant.ok()) return new RefusedCall<grpc::ServerReadReactor<v1::ExportChunk>>(grant.status());
+  return new ImportReadReactor(core_, &blocking_, ctx, response, *std::move(grant));
 }
 
 ServerUnaryReactor* GrpcMapService::ListInstances(CallbackServerContext* ctx,
                                                   const v1::ListInstancesRequest* request,
                                                   v1::ListInstancesResponse* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->ListInstances(*request), response);
 }
 
 ServerUnaryReactor* GrpcMapService::GetInstance(CallbackServerContext* ctx,
                                                 const v1::GetInstanceRequest* request,
                                                 v1::Instance* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->name()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->GetInstance(*request), response);
 }
 
@@ -166,6 +194,9 @@ ServerUnaryReactor* GrpcMapService::GetLabelVoxels(CallbackServerContext* ctx,
 
 grpc::ServerWriteReactor<v1::InstanceEvent>* GrpcMapService::WatchInstances(
     CallbackServerContext* ctx, const v1::WatchInstancesRequest* request) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) {
+    return new RefusedCall<grpc::ServerWriteReactor<v1::InstanceEvent>>(s);
+  }
   return new InstanceWatchReactor(core_, *request);
 }
 

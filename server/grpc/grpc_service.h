@@ -9,6 +9,11 @@
 // ListInstances, GetInstance, GetLabelVoxels (unary) and WatchInstances (server stream of
 // events, instance_watch_reactor.h).
 //
+// Every call is authorized first when Options::auth is set (grpc_auth.h): UNAUTHENTICATED
+// without a known token, PERMISSION_DENIED for a role too low or a map outside the token's
+// scope; ListMaps lists only the maps in scope; StreamFrames and ImportMap check the map of
+// each frame / of the first piece.
+//
 // Thread safety: safe for concurrent calls; no state but the core pointer and the threads
 // for blocking steps.
 #ifndef SERVER_GRPC_GRPC_SERVICE_H_
@@ -18,6 +23,8 @@
 
 #include <algorithm>
 
+#include "absl/strings/string_view.h"
+#include "server/auth/authorizer.h"
 #include "server/grpc/stream_limiter.h"
 #include "server/maps/map_service.h"
 #include "server/work_queue.h"
@@ -33,6 +40,9 @@ class GrpcMapService final : public v1::MapService::CallbackService {
     // Open StreamFrames calls per client (peer address without port); the next one is
     // refused with RESOURCE_EXHAUSTED (stream_limiter.h). 0 = no limit.
     int max_streams_per_client = 0;
+    // Who may call what (auth/authorizer.h; not owned, outlives the service); null = anyone
+    // may call everything. The role each call needs: docs/operations.md.
+    const auth::Authorizer* auth = nullptr;
   };
   // REQUIRES: core outlives this service; the service outlives every call it started.
   GrpcMapService(MapService* core, const Options& options)
@@ -91,6 +101,10 @@ class GrpcMapService final : public v1::MapService::CallbackService {
       grpc::CallbackServerContext* ctx, const v1::WatchInstancesRequest* request) override;
 
  private:
+  // The caller's grant checked for `needed` on the map `resource` names (grpc_auth.h).
+  absl::Status Allow(grpc::CallbackServerContext* ctx, auth::Role needed,
+                     absl::string_view resource) const;
+
   MapService* const core_;
   const Options options_;
   StreamLimiter streams_;

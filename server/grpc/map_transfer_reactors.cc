@@ -43,8 +43,9 @@ void ExportWriteReactor::WriteNext() {
 }
 
 ImportReadReactor::ImportReadReactor(MapService* core, WorkQueue* blocking,
-                                     grpc::CallbackServerContext* ctx, v1::Map* response)
-    : core_(core), blocking_(blocking), ctx_(ctx), response_(response) {
+                                     grpc::CallbackServerContext* ctx, v1::Map* response,
+                                     auth::Grant grant)
+    : core_(core), blocking_(blocking), ctx_(ctx), response_(response), grant_(std::move(grant)) {
   StartRead(&piece_);
 }
 
@@ -63,6 +64,10 @@ void ImportReadReactor::End(const absl::Status& s) {
 void ImportReadReactor::Step(bool ok) {
   if (!ok && ctx_->IsCancelled()) return End(absl::CancelledError("import cancelled"));
   if (importer_ == nullptr) {  // the first message (or an empty stream)
+    if (grant_.Scoped()) {
+      const std::string map = "maps/" + (ok ? piece_.map_id() : "");
+      if (absl::Status s = grant_.CheckMap(auth::Role::kWrite, map); !s.ok()) return End(s);
+    }
     absl::StatusOr<std::unique_ptr<MapImporter>> importer =
         core_->ImportMap(ok ? piece_.map_id() : "");
     if (!importer.ok()) return End(importer.status());

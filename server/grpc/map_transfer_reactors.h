@@ -21,6 +21,7 @@
 #include <functional>
 #include <memory>
 
+#include "server/auth/grant.h"
 #include "server/maps/map_service.h"
 #include "server/work_queue.h"
 #include "skimap/v1/maps.pb.h"
@@ -46,9 +47,11 @@ class ExportWriteReactor final : public grpc::ServerWriteReactor<v1::ExportChunk
 
 class ImportReadReactor final : public grpc::ServerReadReactor<v1::ExportChunk> {
  public:
-  // REQUIRES: core and blocking outlive the call. Deletes itself in OnDone.
+  // REQUIRES: core and blocking outlive the call. Deletes itself in OnDone. A map_id
+  // outside `grant`'s scope (or none, from a scoped grant) ends the call with
+  // PERMISSION_DENIED before anything is written.
   ImportReadReactor(MapService* core, WorkQueue* blocking, grpc::CallbackServerContext* ctx,
-                    v1::Map* response);
+                    v1::Map* response, auth::Grant grant = auth::Grant::Everything());
   void OnReadDone(bool ok) override;
   void OnDone() override { delete this; }
 
@@ -61,6 +64,7 @@ class ImportReadReactor final : public grpc::ServerReadReactor<v1::ExportChunk> 
   WorkQueue* const blocking_;
   grpc::CallbackServerContext* const ctx_;
   v1::Map* const response_;
+  const auth::Grant grant_;
   std::unique_ptr<MapImporter> importer_;  // from the first message on
   v1::ExportChunk piece_;
 };

@@ -13,6 +13,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "server/auth/authorizer.h"
 #include "server/objects/object_service.h"
 #include "skimap/v1/objects.grpc.pb.h"
 
@@ -20,8 +21,10 @@ namespace skimap::server {
 
 class GrpcObjectService final : public v1::ObjectService::CallbackService {
  public:
-  // REQUIRES: core outlives this service and every call it started.
-  explicit GrpcObjectService(ObjectService* core) : core_(core) {}
+  // REQUIRES: core (and auth, if not null) outlive this service and every call it started.
+  // With `auth`, every call is authorized first (grpc_auth.h; the roles: docs/operations.md).
+  explicit GrpcObjectService(ObjectService* core, const auth::Authorizer* auth = nullptr)
+      : core_(core), auth_(auth) {}
 
   grpc::ServerReadReactor<v1::TrainObjectRequest>* TrainObject(grpc::CallbackServerContext* ctx,
                                                                v1::Object* response) override;
@@ -54,7 +57,10 @@ class GrpcObjectService final : public v1::ObjectService::CallbackService {
                                           v1::Operation* response) override;
 
  private:
+  absl::Status Allow(grpc::CallbackServerContext* ctx, auth::Role needed) const;
+
   ObjectService* const core_;
+  const auth::Authorizer* const auth_;
 };
 
 }  // namespace skimap::server

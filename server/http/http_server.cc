@@ -14,6 +14,7 @@
 #include "perception/echo.h"
 #include "server/http/http_call.h"
 #include "server/http/http_status.h"
+#include "server/http/rest_access.h"
 #include "server/http/rest_messages.h"
 #include "server/listen_address.h"
 
@@ -66,7 +67,7 @@ void WriteError(httplib::Response& response, const absl::Status& status, int htt
 }  // namespace
 
 HttpServer::HttpServer(const Options& options, std::vector<RestRoute> routes)
-    : options_(options), routes_(std::move(routes)), http_(std::make_unique<httplib::Server>()) {
+    : options_(options), routes_(std::move(routes)) {
   for (const RestRoute& route : routes_) {
     CompiledRoute compiled;
     compiled.pattern = CompileTemplate(route.path, &compiled.parameters);
@@ -76,7 +77,8 @@ HttpServer::HttpServer(const Options& options, std::vector<RestRoute> routes)
 
 absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& options,
                                                               std::vector<RestRoute> routes) {
-  if (absl::Status s = CheckListenAddress(options.address, options.insecure, "--http_address");
+  if (absl::Status s = CheckListenAddress(
+          options.address, options.insecure || options.auth != nullptr, "--http_address");
       !s.ok()) {
     return s;
   }
@@ -90,6 +92,22 @@ absl::StatusOr<std::unique_ptr<HttpServer>> HttpServer::Start(const Options& opt
     return absl::InvalidArgumentError("HTTP threads and body limit must be >= 1");
   }
   std::unique_ptr<HttpServer> s(new HttpServer(options, std::move(routes)));
+  if (options.tls.enabled()) {
+    // Read first for clear errors; httplib reads the same files again.
+    absl::StatusOr<auth::TlsFiles::Pem> pem = options.tls.Read();
+    if (!pem.ok()) return pem.status();
+    const std::string& ca = options.tls.client_ca;
+    auto https = std::make_unique<httplib::SSLServer>(
+        options.tls.cert.c_str(), options.tls.key.c_str(), ca.empty() ? nullptr : ca.c_str());
+    if (!https->is_valid()) {
+      return absl::InvalidArgumentError(
+          "--tls_cert / --tls_key / --tls_client_ca: OpenSSL refused them (a key that does not "
+          "match the certificate, or a file that is not a PEM certificate or key)");
+    }
+    s->http_ = std::move(https);
+  } else {
+    s->http_ = std::make_unique<httplib::Server>();
+  }
   if (!options.web_root.empty()) {
     absl::StatusOr<StaticFiles> files = StaticFiles::Open(options.web_root);
     if (!files.ok()) return files.status();
@@ -187,6 +205,14 @@ void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& re
     const auto map = rest.path.find("map");
     call.SetRoute(absl::StrCat(routes_[i].method, " ", routes_[i].path),
                   map == rest.path.end() ? "" : absl::StrCat("maps/", map->second.substr(0, 256)));
+    const absl::StatusOr<auth::Grant> grant = Authorize(request, i, rest.path);
+    if (!grant.ok()) {
+      if (absl::IsUnauthenticated(grant.status())) {
+        response.set_header("WWW-Authenticate", "Bearer realm=\"skimapd\"");
+      }
+      return WriteError(response, grant.status());
+    }
+    rest.grant = &*grant;
     absl::StatusOr<RestReply> reply = routes_[i].handler(rest);
     if (!reply.ok()) return WriteError(response, reply.status());
     return Answer(*std::move(reply), response);
@@ -211,6 +237,20 @@ void HttpServer::Dispatch(const httplib::Request& request, httplib::Response& re
                                                    Echo(request.path), "; it takes ",
                                                    absl::StrJoin(allowed, ", "))),
              405);
+}
+
+absl::StatusOr<auth::Grant> HttpServer::Authorize(
+    const httplib::Request& request, size_t i,
+    const std::map<std::string, std::string>& path) const {
+  if (options_.auth == nullptr) return auth::Grant::Everything();
+  const std::optional<auth::Role> role =
+      RestRouteRole(routes_[i].method, routes_[i].path, options_.metrics_public);
+  if (!role.has_value()) return auth::Grant::Everything();
+  const std::string authorization = request.get_header_value("Authorization");
+  if (auto map = path.find("map"); map != path.end()) {
+    return options_.auth->AuthorizeMap(authorization, *role, "maps/" + map->second);
+  }
+  return options_.auth->Authorize(authorization, *role);
 }
 
 void HttpServer::Answer(RestReply reply, httplib::Response& response) {

@@ -24,6 +24,7 @@
 #ifndef SERVER_HTTP_HTTP_SERVER_H_
 #define SERVER_HTTP_HTTP_SERVER_H_
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <regex>
@@ -32,6 +33,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "server/auth/authorizer.h"
+#include "server/auth/tls_files.h"
 #include "server/http/rest_route.h"
 #include "server/http/static_files.h"
 #include "server/metrics/metrics.h"
@@ -49,9 +52,20 @@ namespace skimap::server {
 class HttpServer {
  public:
   struct Options {
-    // host:port; port 0 = any free port. Loopback unless `insecure` (listen_address.h).
+    // host:port; port 0 = any free port. Loopback unless `insecure` or `auth`
+    // (listen_address.h).
     std::string address = "127.0.0.1:8080";
     bool insecure = false;
+    // Bearer-token authorization (header `Authorization: Bearer <token>`) of every route
+    // but the public ones (rest_access.h); not owned, outlives the server; null = none.
+    // 401 (with WWW-Authenticate) for a missing or unknown token, 403 for a role too low
+    // or a {map} outside the token's scope.
+    const auth::Authorizer* auth = nullptr;
+    // GET /metrics readable without a token (with `auth`); else it needs the read role.
+    bool metrics_public = true;
+    // HTTPS with tls.cert and tls.key; client certificates required and verified against
+    // tls.client_ca when given (mTLS). Plain HTTP without.
+    auth::TlsFiles tls;
     int threads = 8;                           // requests served at once, >= 1
     size_t max_body_bytes = size_t{32} << 20;  // larger bodies: 413
     // Origins allowed to call from a browser ("https://viewer.example:8443"), or "*" for
@@ -65,9 +79,9 @@ class HttpServer {
   };
 
   // Binds and starts serving `routes` on the pool. FailedPrecondition for an address
-  // beyond loopback without `insecure`; InvalidArgument for a malformed address or
-  // options; NotFound for a web_root without index.html; Unavailable if the address
-  // cannot be bound.
+  // beyond loopback without `insecure` or `auth`; InvalidArgument for a malformed address
+  // or options; NotFound for a web_root without index.html; the TLS files' errors
+  // (TlsFiles::Read); Unavailable if the address cannot be bound.
   static absl::StatusOr<std::unique_ptr<HttpServer>> Start(const Options& options,
                                                            std::vector<RestRoute> routes);
   ~HttpServer();  // Stop()
@@ -86,6 +100,10 @@ class HttpServer {
   };
 
   HttpServer(const Options& options, std::vector<RestRoute> routes);
+  // The grant of the request for route `i` (Grant::Everything() without auth or for a
+  // public route); the {map} path parameter, if any, must be in its scope.
+  absl::StatusOr<auth::Grant> Authorize(const httplib::Request& request, size_t i,
+                                        const std::map<std::string, std::string>& path) const;
   void Dispatch(const httplib::Request& request, httplib::Response& response) const;
   static void Answer(RestReply reply, httplib::Response& response);
   // CORS headers; true for a preflight, answered here.

@@ -21,17 +21,21 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "server/auth/grant.h"
 
 namespace skimap::server {
 
 // What a handler sees of a request (valid during the call): the values of the path
 // template's parameters by name ("map" -> "kitchen"), the query parameters (decoded, in
-// order), the body and the Accept header.
+// order), the body and the Accept header, and the caller's grant (auth/grant.h: already
+// checked for the route's role and its {map}; a route that names a map elsewhere, or
+// lists maps, checks it against the scope).
 struct RestCall {
   std::map<std::string, std::string> path;
   const std::multimap<std::string, std::string>& query;
   const std::string& body;
   std::string accept;
+  const auth::Grant* grant = nullptr;  // null: no authorization (a test calling directly)
 };
 
 // A successful answer (status 200). Errors are absl::Status values, turned into a

@@ -130,12 +130,28 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, 
   routes.push_back({"GET", "/v1/openapi.json", [](const RestCall&) -> absl::StatusOr<RestReply> {
                       return RestReply{.body = kOpenApiJson};
                     }});
-  routes.push_back({"GET", "/v1/maps",
-                    Unary<v1::ListMapsRequest, v1::ListMapsResponse>(
-                        Body::kNone, {}, [&maps](const auto& r) { return maps.ListMaps(r); })});
-  routes.push_back({"POST", "/v1/maps",
-                    Unary<v1::CreateMapRequest, v1::Map>(
-                        Body::kJson, {}, [&maps](const auto& r) { return maps.CreateMap(r); })});
+  routes.push_back({"GET", "/v1/maps", [&maps](const RestCall& call) -> absl::StatusOr<RestReply> {
+                      auto request = ParseRequest<v1::ListMapsRequest>(call, Body::kNone, {});
+                      if (!request.ok()) return request.status();
+                      absl::StatusOr<v1::ListMapsResponse> reply = maps.ListMaps(*request);
+                      if (!reply.ok()) return reply.status();
+                      if (call.grant != nullptr) auth::KeepMapsInScope(*call.grant, &*reply);
+                      return JsonReply(*reply);
+                    }});
+  routes.push_back({"POST", "/v1/maps", [&maps](const RestCall& call) -> absl::StatusOr<RestReply> {
+                      auto request = ParseRequest<v1::CreateMapRequest>(call, Body::kJson, {});
+                      if (!request.ok()) return request.status();
+                      if (call.grant != nullptr) {  // the map is named in the body
+                        if (absl::Status s = call.grant->CheckMap(auth::Role::kWrite,
+                                                                  "maps/" + request->map_id());
+                            !s.ok()) {
+                          return s;
+                        }
+                      }
+                      absl::StatusOr<v1::Map> map = maps.CreateMap(*request);
+                      if (!map.ok()) return map.status();
+                      return JsonReply(*map);
+                    }});
   routes.push_back({"GET", "/v1/maps/{map}",
                     Unary<v1::GetMapRequest, v1::Map>(
                         Body::kNone, kMapName, [&maps](const auto& r) { return maps.GetMap(r); })});

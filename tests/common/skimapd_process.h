@@ -46,6 +46,11 @@ class SkimapdProcess {
   SkimapdProcess(const SkimapdProcess&) = delete;
   SkimapdProcess& operator=(const SkimapdProcess&) = delete;
 
+  // How Start() connects to wait for the server (TLS, token: client/channel.h).
+  void set_connection(client::Connection connection) { connection_ = std::move(connection); }
+  // Sends the process's stdout and stderr to `path` (appended) instead of the test's.
+  void set_log_file(std::string path) { log_file_ = std::move(path); }
+
   // Forks skimapd on 127.0.0.1:<free port> with a fresh data dir (the same one again after
   // CrashAndRestart) and waits until it accepts calls (Unavailable after 20 s,
   // FailedPrecondition as soon as the process exits).
@@ -73,6 +78,13 @@ class SkimapdProcess {
         const int fd = open(stderr_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
         if (fd >= 0) dup2(fd, 2);
       }
+      if (!log_file_.empty()) {
+        const int fd = open(log_file_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0600);
+        if (fd >= 0) {
+          dup2(fd, 1);
+          dup2(fd, 2);
+        }
+      }
       std::vector<char*> argv;
       for (std::string& a : args) argv.push_back(a.data());
       argv.push_back(nullptr);
@@ -80,7 +92,7 @@ class SkimapdProcess {
       _exit(127);
     }
     // Waits in short steps so a process that refuses to start fails the call at once.
-    auto client = client::MapClient::Connect(address_);
+    auto client = client::MapClient::Connect(address_, {.connection = connection_});
     const absl::Time deadline = absl::Now() + absl::Seconds(20);
     for (;;) {
       absl::Status ready = client->WaitForServer(absl::Milliseconds(200));
@@ -160,7 +172,8 @@ class SkimapdProcess {
   static inline int count_ = 0;
   const std::string binary_;
   const std::vector<std::string> flags_;
-  std::string address_, data_dir_, stderr_path_;
+  std::string address_, data_dir_, stderr_path_, log_file_;
+  client::Connection connection_;
   pid_t pid_ = -1;
   int http_port_ = 0;
 };
