@@ -12,12 +12,13 @@ jobs=$(nproc)
 bash scripts/build.sh release
 (cd build/release && ctest --output-on-failure -j "$jobs" --timeout 600)
 bash scripts/build.sh asan
-# The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and two
+# The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and three
 # compute-bound end-to-end suites that run in the release pass only: the object pipeline's
-# training tests (300 s under ASan) and the recognition suite (its world, trained objects
-# and a recognised scene, takes 400 s under ASan; 12 minutes in all). Their code runs under
-# ASan through the object service tests and the unit tests of each part.
-heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$)'
+# training tests (300 s under ASan), the recognition suite (its world, trained objects and
+# a recognised scene, takes 400 s under ASan) and the browser test that trains and
+# recognises the same scene. Their code runs under ASan through the object service tests
+# and the unit tests of each part.
+heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances)'
 (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --output-on-failure -j "$jobs" -LE fuzz -E "$heavy" --timeout 900)
