@@ -189,6 +189,7 @@ ServerUnaryReactor* GrpcMapService::GetInstance(CallbackServerContext* ctx,
 ServerUnaryReactor* GrpcMapService::GetLabelVoxels(CallbackServerContext* ctx,
                                                    const v1::GetLabelVoxelsRequest* request,
                                                    v1::GetLabelVoxelsResponse* response) {
+  if (absl::Status s = Allow(ctx, Role::kRead, request->map()); !s.ok()) return Refuse(ctx, s);
   return Reply(ctx, core_->GetLabelVoxels(*request), response);
 }
 

@@ -28,6 +28,7 @@ const RouteAccess kRoutes[] = {
     {"POST", "/v1/maps/{map}:radiusSearch", Role::kRead},
     {"POST", "/v1/maps/{map}/frames", Role::kWrite},
     {"POST", "/v1/maps/{map}:updatePoses", Role::kWrite},
+    {"GET", "/v1/maps/{map}/labels", Role::kRead},
     {"GET", "/v1/maps/{map}/instances", Role::kRead},
     {"GET", "/v1/maps/{map}/instances/{id}", Role::kRead},
     {"GET", "/v1/objects", Role::kRead},

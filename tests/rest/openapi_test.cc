@@ -56,7 +56,7 @@ TEST(OpenApiTest, DocumentsExactlyTheRoutesTheServerRegisters) {
         << "registered twice: " << route.method << " " << route.path;
   }
   EXPECT_EQ(documented, registered);
-  EXPECT_EQ(registered.size(), 19u);  // with the viewer's trajectory, events and labels
+  EXPECT_EQ(registered.size(), 20u);  // with the viewer's trajectory, events, labels; /metrics
 }
 
 TEST(OpenApiTest, EveryDocumentedRouteAnswersSomethingOtherThan404Or405ForNoRoute) {
