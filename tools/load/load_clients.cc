@@ -49,7 +49,7 @@ v1::Frame RobotFrame(const std::string& map, int index, uint64_t sequence) {
     for (int u = 0; u < kW; ++u) {
       // The floor 1.5 m below, with a 20 cm ramp across the image (boxes, steps).
       const uint16_t mm = static_cast<uint16_t>(1500 - (u * 200) / kW);
-      const size_t i = size_t{2} * (size_t{v} * kW + u);
+      const size_t i = 2 * (static_cast<size_t>(v) * kW + static_cast<size_t>(u));
       depth[i] = static_cast<char>(mm & 0xff);
       depth[i + 1] = static_cast<char>(mm >> 8);
     }
