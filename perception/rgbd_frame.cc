@@ -7,7 +7,7 @@
 namespace skimap::perception {
 namespace {
 
-constexpr int kMaxSide = 8192;
+constexpr int kMaxIntrinsicsSide = 8192;
 
 bool Finite(double v) { return std::isfinite(v); }
 
@@ -22,11 +22,13 @@ absl::Status ValidateCamera(const PinholeCamera& c) {
   }
   if (!Finite(c.cx)) return absl::InvalidArgumentError("intrinsics.cx must be finite");
   if (!Finite(c.cy)) return absl::InvalidArgumentError("intrinsics.cy must be finite");
-  if (c.width <= 0 || c.width > kMaxSide) {
-    return absl::InvalidArgumentError(absl::StrCat("intrinsics.width must be in 1..", kMaxSide));
+  if (c.width <= 0 || c.width > kMaxIntrinsicsSide) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("intrinsics.width must be in 1..", kMaxIntrinsicsSide));
   }
-  if (c.height <= 0 || c.height > kMaxSide) {
-    return absl::InvalidArgumentError(absl::StrCat("intrinsics.height must be in 1..", kMaxSide));
+  if (c.height <= 0 || c.height > kMaxIntrinsicsSide) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("intrinsics.height must be in 1..", kMaxIntrinsicsSide));
   }
   // Plausibility (docs/api.md, "Frame limits"): a field of view a real camera can have and
   // a principal point near the image; anything else puts the points far from the camera.

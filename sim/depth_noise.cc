@@ -9,7 +9,7 @@ namespace skimap::sim {
 namespace {
 
 // Fast deterministic uniform [0, 1) from the 64-bit stream.
-inline float Uniform(std::mt19937_64& rng) {
+inline float UnitUniform(std::mt19937_64& rng) {
   return static_cast<float>(rng() >> 40) * (1.0f / 16777216.0f);
 }
 
@@ -50,7 +50,7 @@ cv::Mat SimulateDepth(const cv::Mat& ideal, const cv::Mat& incidence, float fx, 
       float z = z_row[x];
       if (z < noise.min_range || z > noise.max_range) continue;
       if (noise.enabled) {
-        if (c_row[x] < noise.grazing_cos && Uniform(rng) < noise.grazing_drop) continue;
+        if (c_row[x] < noise.grazing_cos && UnitUniform(rng) < noise.grazing_drop) continue;
         float jump = 0;
         for (int dy = -1; dy <= 1; ++dy) {
           const int yy = std::clamp(y + dy, 0, ideal.rows - 1);
@@ -60,8 +60,8 @@ cv::Mat SimulateDepth(const cv::Mat& ideal, const cv::Mat& incidence, float fx, 
             jump = std::max(jump, n == 0 ? 1.f : std::abs(n - z));
           }
         }
-        if (jump > noise.edge_jump && Uniform(rng) < noise.edge_drop) continue;
-        if (Uniform(rng) < noise.random_drop) continue;
+        if (jump > noise.edge_jump && UnitUniform(rng) < noise.edge_drop) continue;
+        if (UnitUniform(rng) < noise.random_drop) continue;
         const float d = z - 0.4f;
         z += Normal(rng) * (noise.axial_a + noise.axial_b * d * d);
         const float disparity = std::round(bf / z * noise.subpixel) / noise.subpixel;

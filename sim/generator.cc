@@ -62,10 +62,6 @@ std::string Id6(int id) {
   return b;
 }
 
-float Uniform(std::mt19937_64& rng, float lo, float hi) {
-  return lo + (hi - lo) * static_cast<float>(rng() >> 40) / 16777216.0f;
-}
-
 Lighting RandomLighting(std::mt19937_64& rng) {
   Lighting l;
   const float az = Uniform(rng, 0, 6.2832f), el = Uniform(rng, 0.7f, 1.2f);

@@ -8,14 +8,15 @@
 #include "dataset/json_util.h"
 
 namespace skimap::sim {
-namespace {
-
-using Eigen::Vector2f;
-using Eigen::Vector3f;
 
 float Uniform(std::mt19937_64& rng, float lo, float hi) {
   return lo + (hi - lo) * static_cast<float>(rng() >> 40) / 16777216.0f;
 }
+
+namespace {
+
+using Eigen::Vector2f;
+using Eigen::Vector3f;
 
 // Rounds to whole centimetres so the documented geometry has short exact numbers.
 float Cm(float v) { return std::round(v * 100.f) / 100.f; }

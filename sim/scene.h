@@ -63,6 +63,9 @@ struct SceneLayout {
   std::vector<Placement> distractors;
 };
 
+// A float drawn uniformly from [lo, hi) with the top 24 bits of one rng() draw.
+float Uniform(std::mt19937_64& rng, float lo, float hi);
+
 // Builds a room from the spec; furniture sizes and object poses are drawn from rng.
 // REQUIRES: spec.objects <= objects.size(); room at least 3.5 x 3 m.
 SceneLayout MakeRoom(const RoomSpec& spec, const std::vector<ObjectModel>& objects,

@@ -11,7 +11,7 @@
 namespace skimap::storage {
 namespace {
 
-constexpr char kMapColumns[] =
+constexpr char kPgMapColumns[] =
     "id, options, last_position, snapshot_position, snapshot_unix_ms, importing";
 constexpr size_t kPage = 256;    // chunks per query when reading a whole snapshot
 constexpr size_t kRecords = 64;  // journal records per query
@@ -21,7 +21,7 @@ StoredMap MapAt(const PgResult& r, int row) {
                    uint64_t(r.Int(row, 3)), r.Int(row, 4),   r.Bool(row, 5)};
 }
 
-absl::Status NoMap(const std::string& id) {
+absl::Status NoPgMap(const std::string& id) {
   return absl::NotFoundError(absl::StrCat("map store: no map ", id));
 }
 
@@ -90,9 +90,9 @@ absl::Status PostgresMapStore::CheckFence(PgConnection& c, const std::string& id
 absl::StatusOr<StoredMap> PostgresMapStore::GetMapOn(PgConnection& c, const std::string& id) {
   PgParams p;
   p.Text(id);
-  SK_ASSIGN_OR_RETURN(r,
-                      c.Exec(absl::StrCat("SELECT ", kMapColumns, " FROM maps WHERE id = $1"), p));
-  if (r.rows() == 0) return NoMap(id);
+  SK_ASSIGN_OR_RETURN(
+      r, c.Exec(absl::StrCat("SELECT ", kPgMapColumns, " FROM maps WHERE id = $1"), p));
+  if (r.rows() == 0) return NoPgMap(id);
   return MapAt(r, 0);
 }
 
@@ -142,7 +142,7 @@ absl::Status PostgresMapStore::FinishImport(const std::string& id) {
     PgParams p;
     p.Text(id);
     SK_ASSIGN_OR_RETURN(r, c.Exec("UPDATE maps SET importing = FALSE WHERE id = $1", p));
-    if (r.affected() == 0) return NoMap(id);
+    if (r.affected() == 0) return NoPgMap(id);
     return CheckFence(c, id);
   });
 }
@@ -155,7 +155,7 @@ absl::Status PostgresMapStore::DeleteMap(const std::string& id) {
     p.Text(id);
     // The foreign keys cascade to the journal, the chunks and the lease.
     SK_ASSIGN_OR_RETURN(r, c.Exec("DELETE FROM maps WHERE id = $1", p));
-    return r.affected() == 0 ? NoMap(id) : absl::OkStatus();
+    return r.affected() == 0 ? NoPgMap(id) : absl::OkStatus();
   });
   if (s.ok()) DropFence(id);
   return s;
@@ -168,7 +168,7 @@ absl::StatusOr<StoredMap> PostgresMapStore::GetMap(const std::string& id) {
 
 absl::StatusOr<std::vector<StoredMap>> PostgresMapStore::ListMaps() {
   PgPool::Lease c = pool_->Take();
-  SK_ASSIGN_OR_RETURN(r, c->Exec(absl::StrCat("SELECT ", kMapColumns, " FROM maps ORDER BY id")));
+  SK_ASSIGN_OR_RETURN(r, c->Exec(absl::StrCat("SELECT ", kPgMapColumns, " FROM maps ORDER BY id")));
   std::vector<StoredMap> out;
   for (int i = 0; i < r.rows(); ++i) out.push_back(MapAt(r, i));
   return out;
@@ -189,7 +189,7 @@ absl::StatusOr<uint64_t> PostgresMapStore::AppendJournal(
     SK_ASSIGN_OR_RETURN(r, c.Exec("UPDATE maps SET last_position = last_position + $2 WHERE id "
                                   "= $1 RETURNING last_position",
                                   p));
-    if (r.rows() == 0) return NoMap(id);
+    if (r.rows() == 0) return NoPgMap(id);
     SK_RETURN_IF_ERROR(CheckFence(c, id));
     const uint64_t last = uint64_t(r.Int(0, 0));
     uint64_t position = last - records.size();

@@ -54,7 +54,7 @@ struct PgMigration {
   const char* name;
   const char* sql;
 };
-constexpr PgMigration kMigrations[] = {
+constexpr PgMigration kPgMigrations[] = {
     {1, "map store (maps, journal, chunks) and fleet (nodes, leases)", kV1},
 };
 
@@ -73,7 +73,7 @@ absl::Status MigratePostgres(PgConnection& c) {
       "NULL, applied_unix_ms BIGINT NOT NULL)");
   // Two nodes creating it at once: one of them meets a unique violation in the catalog.
   if (!created.ok() && !absl::IsAlreadyExists(created)) return created;
-  const int newest = int(std::size(kMigrations));
+  const int newest = int(std::size(kPgMigrations));
   for (;;) {
     absl::StatusOr<int> current = Version(c);
     if (!current.ok()) return current.status();
@@ -83,7 +83,7 @@ absl::Status MigratePostgres(PgConnection& c) {
                                                         " (written by newer software)"));
     }
     if (*current == newest) return absl::OkStatus();
-    const PgMigration& m = kMigrations[*current];
+    const PgMigration& m = kPgMigrations[*current];
     auto apply = [&]() -> absl::Status {
       PgTransaction tx(c);
       if (!tx.status().ok()) return tx.status();

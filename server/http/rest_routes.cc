@@ -23,7 +23,21 @@ RestReply JsonReply(const google::protobuf::Message& message) {
   return RestReply{.content_type = "application/json", .body = ToJson(message)};
 }
 
-// A route whose reply is the core method's reply message as JSON.
+// The media type of the protobuf binary encoding.
+constexpr char kProtobuf[] = "application/x-protobuf";
+
+// The reply message as JSON, or in the protobuf binary encoding (the gRPC answer's bytes)
+// when the Accept header names application/x-protobuf: the viewer reads voxel pages so,
+// since printing JSON costs the server 15-60x what the page itself does
+// (docs/benchmarks.md, "REST vs gRPC").
+RestReply MessageReply(const RestCall& call, const google::protobuf::Message& message) {
+  if (absl::StrContains(call.accept, kProtobuf)) {
+    return RestReply{.content_type = kProtobuf, .body = message.SerializeAsString()};
+  }
+  return JsonReply(message);
+}
+
+// A route whose reply is the core method's reply message, as JSON or protobuf (MessageReply).
 template <class Request, class Reply>
 RestHandler Unary(Body body, std::vector<Binding> bindings,
                   std::function<absl::StatusOr<Reply>(const Request&)> method) {
@@ -33,7 +47,7 @@ RestHandler Unary(Body body, std::vector<Binding> bindings,
     if (!request.ok()) return request.status();
     absl::StatusOr<Reply> reply = method(*request);
     if (!reply.ok()) return reply.status();
-    return JsonReply(*reply);
+    return MessageReply(call, *reply);
   };
 }
 

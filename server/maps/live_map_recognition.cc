@@ -16,7 +16,7 @@ namespace {
 
 constexpr size_t kMaxHypothesesPerVoxel = 32;  // per object; the oldest frames' go first
 
-Point3 ToPoint(const Eigen::Vector3f& p) { return {p.x(), p.y(), p.z()}; }
+Point3 AsPoint3(const Eigen::Vector3f& p) { return {p.x(), p.y(), p.z()}; }
 
 Eigen::Isometry3d Isometry(const perception::CameraPose& p) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
@@ -110,7 +110,7 @@ void LiveMap::RecognizeOnThread(RecognitionJob& job) {
   Read([&](const MapState& s) {
     const Grid& g = s.labels.grid();
     s.labels.RadiusSearch(
-        ToPoint(sphere.centre), sphere.radius,
+        AsPoint3(sphere.centre), sphere.radius,
         [&](const VoxelKey& k, const MultiLabelVoxel& voxel) {
           // The voxel's heaviest label (paper §4.1: its maximal pair).
           const MultiLabelVoxel::Entry e = voxel.Heaviest();

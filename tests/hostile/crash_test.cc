@@ -40,6 +40,7 @@
 #include "absl/strings/str_join.h"
 #include "client/map_client.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/hostile/voxel_set.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
@@ -56,7 +57,7 @@ uint64_t EnvNumber(const char* name, uint64_t fallback) {
 
 // Frame i's camera: on an orbit around the box whose angle, radius and height never repeat,
 // always looking at the box (so every frame hits the box and the floor).
-Eigen::Isometry3d View(uint64_t i) {
+Eigen::Isometry3d OrbitView(uint64_t i) {
   const double angle = 0.37 * double(i);
   const double radius = 1.6 + 0.3 * std::sin(0.13 * double(i));
   const double height = 1.1 + 0.4 * std::sin(0.23 * double(i) + 1.0);
@@ -67,22 +68,7 @@ Eigen::Isometry3d View(uint64_t i) {
 }
 
 v1::Frame Frame(const std::string& map, uint64_t sequence) {
-  return MakeFrame(map, sequence, View(sequence));
-}
-
-using VoxelSet = std::set<std::tuple<double, double, double, float, uint32_t>>;
-
-VoxelSet Voxels(client::MapClient& client, const std::string& map) {
-  v1::GetVoxelsRequest request;
-  request.set_map(map);
-  request.set_min_voxel_weight(0);
-  auto voxels = client.GetAllVoxels(request);
-  EXPECT_TRUE(voxels.ok()) << map << ": " << voxels.status();
-  VoxelSet out;
-  for (const v1::Voxel& v : voxels.value_or(std::vector<v1::Voxel>{})) {
-    out.insert({v.center().x(), v.center().y(), v.center().z(), v.weight(), v.rgb()});
-  }
-  return out;
+  return MakeFrame(map, sequence, OrbitView(sequence));
 }
 
 v1::OccupancyGrid Grid(client::MapClient& client, const std::string& map) {

@@ -49,7 +49,7 @@ v1::CreateMapRequest Create(const std::string& id, double resolution = 0.01) {
   return r;
 }
 
-uint64_t Voxels(client::MapClient& client, const std::string& map) {
+uint64_t VoxelCount(client::MapClient& client, const std::string& map) {
   absl::StatusOr<v1::Map> m = client.GetMap(map);
   return m.ok() ? m->stats().voxels() : 0;
 }
@@ -91,10 +91,10 @@ TEST(LimitsTest, VoxelsPerMapRefuseFurtherFramesAndTheStreamGoesOn) {
   EXPECT_THAT((*acks)[1].message(), HasSubstr("the limit is 500 per map"));
   EXPECT_THAT((*acks)[1].message(), HasSubstr("--max_map_voxels"));
   EXPECT_EQ((*acks)[2].code(), 0) << (*acks)[2].message();
-  const uint64_t full = Voxels(*client, "maps/full");
+  const uint64_t full = VoxelCount(*client, "maps/full");
   EXPECT_GE(full, 500u);
   EXPECT_EQ(client->GetMap("maps/full")->stats().frames(), 1u);
-  EXPECT_EQ(Voxels(*client, "maps/other"), full);  // the same wall
+  EXPECT_EQ(VoxelCount(*client, "maps/other"), full);  // the same wall
   EXPECT_TRUE(server.Running());
 }
 

@@ -12,27 +12,13 @@
 #include "client/map_client.h"
 #include "storage/sqlite.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/hostile/voxel_set.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {
 
 using ::testing::HasSubstr;
-using VoxelSet = std::set<std::tuple<double, double, double, float, uint32_t>>;
-
-VoxelSet Voxels(client::MapClient& client, const std::string& map) {
-  v1::GetVoxelsRequest request;
-  request.set_map(map);
-  request.set_min_voxel_weight(0);
-  auto voxels = client.GetAllVoxels(request);
-  EXPECT_TRUE(voxels.ok()) << voxels.status();
-  VoxelSet out;
-  for (const v1::Voxel& v : voxels.value_or(std::vector<v1::Voxel>{})) {
-    out.insert({v.center().x(), v.center().y(), v.center().z(), v.weight(), v.rgb()});
-  }
-  return out;
-}
-
 // The occupancy grid covers the free-space volume of carving maps.
 std::string Grid(client::MapClient& client, const std::string& map) {
   v1::GetOccupancyGridRequest request;
@@ -42,7 +28,7 @@ std::string Grid(client::MapClient& client, const std::string& map) {
   return grid.ok() ? grid->SerializeAsString() : "";
 }
 
-Eigen::Isometry3d View(int i) {
+Eigen::Isometry3d ShiftedView(int i) {
   Eigen::Isometry3d pose = DefaultView();
   pose.translation().y() += 0.05 * i;
   return pose;
@@ -59,7 +45,7 @@ void CreateMap(client::MapClient& client, const std::string& id, bool carve) {
 void Stream(client::MapClient& client, const std::string& map, int first, int count) {
   std::unique_ptr<client::FrameStream> stream = client.OpenFrameStream({.window = 4});
   for (int i = first; i < first + count; ++i) {
-    ASSERT_TRUE(stream->Send(MakeFrame(map, i, View(i))).ok());
+    ASSERT_TRUE(stream->Send(MakeFrame(map, i, ShiftedView(i))).ok());
   }
   auto acks = stream->Finish();
   ASSERT_TRUE(acks.ok()) << acks.status();
@@ -72,7 +58,7 @@ v1::UpdatePosesRequest MoveFrames(const std::string& map, std::vector<int> seque
   for (int i : sequences) {
     v1::PoseUpdate* u = update.add_updates();
     u->set_sequence(i);
-    Eigen::Isometry3d moved = View(i);
+    Eigen::Isometry3d moved = ShiftedView(i);
     moved.translation().x() += 0.09;
     SetPose(moved, u->mutable_pose());
   }
@@ -103,7 +89,8 @@ TEST(PersistenceTest, EveryVolumeSurvivesSnapshotPlusJournalTailAcrossKillNine) 
   // After the snapshot: more frames and a pose update of a frame from before it, so the
   // restart needs both the snapshot and the journal tail.
   std::unique_ptr<client::FrameStream> stream = client->OpenFrameStream({.window = 2});
-  for (int i = 6; i < 9; ++i) ASSERT_TRUE(stream->Send(MakeFrame("maps/carved", i, View(i))).ok());
+  for (int i = 6; i < 9; ++i)
+    ASSERT_TRUE(stream->Send(MakeFrame("maps/carved", i, ShiftedView(i))).ok());
   ASSERT_TRUE(stream->Finish().ok());
   ASSERT_TRUE(client->UpdatePoses(MoveFrames("maps/carved", {2, 7})).ok());
   const VoxelSet before = Voxels(*client, "maps/carved");
@@ -124,7 +111,7 @@ TEST(PersistenceTest, EveryVolumeSurvivesSnapshotPlusJournalTailAcrossKillNine) 
   // Sequences and poses came back from the frame index: a known sequence is refused, and
   // moving a frame again starts from its corrected pose (the map equals one built with the
   // final poses, checked through a second identical map below).
-  EXPECT_EQ(client->IntegrateFrame(MakeFrame("maps/carved", 3, View(3))).status().code(),
+  EXPECT_EQ(client->IntegrateFrame(MakeFrame("maps/carved", 3, ShiftedView(3))).status().code(),
             absl::StatusCode::kAlreadyExists);
   ASSERT_TRUE(client->UpdatePoses(MoveFrames("maps/carved", {1, 2, 7})).ok());
   CreateMap(*client, "twin", true);
@@ -201,7 +188,7 @@ TEST(PersistenceTest, EvictedMapsComeBackTransparentlyWhileQueriesGoOn) {
   for (int i = 5; i < 7; ++i) {
     absl::StatusOr<v1::FrameAck> ack;
     for (int attempt = 0; attempt < 20; ++attempt) {
-      ack = client->IntegrateFrame(MakeFrame("maps/a", i, View(i)));
+      ack = client->IntegrateFrame(MakeFrame("maps/a", i, ShiftedView(i)));
       if (ack.status().code() != absl::StatusCode::kUnavailable) break;
     }
     ASSERT_TRUE(ack.ok()) << ack.status();

@@ -8,27 +8,13 @@
 
 #include "client/map_client.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/hostile/voxel_set.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {
 
-using VoxelSet = std::set<std::tuple<double, double, double, float, uint32_t>>;
-
-VoxelSet Voxels(client::MapClient& client, const std::string& map) {
-  v1::GetVoxelsRequest request;
-  request.set_map(map);
-  request.set_min_voxel_weight(0);
-  auto voxels = client.GetAllVoxels(request);
-  EXPECT_TRUE(voxels.ok()) << voxels.status();
-  VoxelSet out;
-  for (const v1::Voxel& v : voxels.value_or(std::vector<v1::Voxel>{})) {
-    out.insert({v.center().x(), v.center().y(), v.center().z(), v.weight(), v.rgb()});
-  }
-  return out;
-}
-
-Eigen::Isometry3d View(int i) {
+Eigen::Isometry3d StepView(int i) {
   Eigen::Isometry3d pose = DefaultView();
   pose.translation().y() += 0.07 * i;
   return pose;
@@ -46,7 +32,8 @@ TEST(RestartTest, AcknowledgedFramesAndPoseUpdatesSurviveKillNine) {
   create.set_map_id("dropped");
   ASSERT_TRUE(client->CreateMap(create).ok());
   std::unique_ptr<client::FrameStream> stream = client->OpenFrameStream({.window = 4});
-  for (int i = 0; i < 6; ++i) ASSERT_TRUE(stream->Send(MakeFrame("maps/kept", i, View(i))).ok());
+  for (int i = 0; i < 6; ++i)
+    ASSERT_TRUE(stream->Send(MakeFrame("maps/kept", i, StepView(i))).ok());
   auto acks = stream->Finish();
   ASSERT_TRUE(acks.ok());
   for (const v1::FrameAck& a : *acks) ASSERT_EQ(a.code(), 0) << a.message();
@@ -55,7 +42,7 @@ TEST(RestartTest, AcknowledgedFramesAndPoseUpdatesSurviveKillNine) {
   for (int i : {1, 4}) {
     v1::PoseUpdate* u = update.add_updates();
     u->set_sequence(i);
-    Eigen::Isometry3d moved = View(i);
+    Eigen::Isometry3d moved = StepView(i);
     moved.translation().x() += 0.11;
     SetPose(moved, u->mutable_pose());
   }
@@ -78,9 +65,9 @@ TEST(RestartTest, AcknowledgedFramesAndPoseUpdatesSurviveKillNine) {
   EXPECT_EQ(client->GetMap("maps/dropped").status().code(), absl::StatusCode::kNotFound);
   // The map goes on: a known sequence is still refused, a new one integrates, a pose
   // update still reaches a frame from before the restart.
-  EXPECT_EQ(client->IntegrateFrame(MakeFrame("maps/kept", 2, View(2))).status().code(),
+  EXPECT_EQ(client->IntegrateFrame(MakeFrame("maps/kept", 2, StepView(2))).status().code(),
             absl::StatusCode::kAlreadyExists);
-  EXPECT_TRUE(client->IntegrateFrame(MakeFrame("maps/kept", 6, View(6))).ok());
+  EXPECT_TRUE(client->IntegrateFrame(MakeFrame("maps/kept", 6, StepView(6))).ok());
   EXPECT_TRUE(client->UpdatePoses(update).ok());
   const VoxelSet later = Voxels(*client, "maps/kept");
   ASSERT_TRUE(server.CrashAndRestart().ok());

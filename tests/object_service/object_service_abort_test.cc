@@ -12,7 +12,7 @@ namespace {
 
 using objects::testing::TempDir;
 
-constexpr int kA = 1, kB = 2, kC = 3;
+constexpr int kObjA = 1, kObjB = 2, kObjC = 3;
 
 v1::BuildClassifierRequest QuickForest() {
   v1::BuildClassifierRequest r;
@@ -28,7 +28,7 @@ TEST(ObjectServiceAbortTest, BuildOvertakenByATrainingEndsAbortedAndInstallsNoth
     std::unique_ptr<server::Server> s = StartServer(dir);
     ASSERT_NE(s, nullptr);
     std::unique_ptr<client::ObjectClient> c = Connect(*s);
-    for (int id : {kA, kB}) ASSERT_TRUE(Train(*c, id, MiniViews(id, 2)).ok());
+    for (int id : {kObjA, kObjB}) ASSERT_TRUE(Train(*c, id, MiniViews(id, 2)).ok());
     absl::StatusOr<v1::Operation> first = c->BuildClassifier(QuickForest());
     ASSERT_TRUE(first.ok()) << first.status();
     ASSERT_TRUE(c->WaitDone(first->name(), nullptr, absl::Milliseconds(20)).ok());
@@ -37,7 +37,7 @@ TEST(ObjectServiceAbortTest, BuildOvertakenByATrainingEndsAbortedAndInstallsNoth
     // The job worker trains object 3 first; the build queued behind it took objects 1 and 2.
     v1::TrainObjectFromDatasetRequest train;
     train.set_dataset_path(objects::testing::MiniDataset());
-    train.set_obj_id(kC);
+    train.set_obj_id(kObjC);
     train.set_frame_stride(3);
     absl::StatusOr<v1::Operation> training = c->TrainObjectFromDataset(train);
     ASSERT_TRUE(training.ok()) << training.status();
@@ -65,7 +65,7 @@ TEST(ObjectServiceAbortTest, BuildOvertakenByATrainingEndsAbortedAndInstallsNoth
     ASSERT_TRUE(state.ok());
     EXPECT_EQ(state->state(), v1::Classifier::NOT_BUILT);
     EXPECT_EQ(state->objects_size(), 0);
-    EXPECT_EQ(c->ClassifyImage(HeldOutImages(kA).at(0)).status().code(),
+    EXPECT_EQ(c->ClassifyImage(HeldOutImages(kObjA).at(0)).status().code(),
               absl::StatusCode::kFailedPrecondition);
     absl::StatusOr<std::vector<v1::Object>> all = c->ListAllObjects();
     ASSERT_TRUE(all.ok());
@@ -87,7 +87,7 @@ TEST(ObjectServiceAbortTest, BuildOvertakenByATrainingEndsAbortedAndInstallsNoth
     EXPECT_EQ(done->classifier().state(), v1::Classifier::READY);
     EXPECT_EQ(done->classifier().objects_size(), 3);
     EXPECT_EQ(done->classifier().classes(), 300u);
-    absl::StatusOr<v1::ClassifyImageResponse> r = c->ClassifyImage(HeldOutImages(kC).at(0));
+    absl::StatusOr<v1::ClassifyImageResponse> r = c->ClassifyImage(HeldOutImages(kObjC).at(0));
     ASSERT_TRUE(r.ok()) << r.status();
     ASSERT_GT(r->objects_size(), 0);
     EXPECT_EQ(r->objects(0).object(), "objects/3");

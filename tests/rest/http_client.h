@@ -9,4 +9,11 @@
 
 #undef _res
 
+namespace skimap::testing {
+
+// The JSON media type of the REST API's requests and answers.
+inline constexpr char kJson[] = "application/json";
+
+}  // namespace skimap::testing
+
 #endif  // TESTS_REST_HTTP_CLIENT_H_

@@ -23,8 +23,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-constexpr char kJson[] = "application/json";
-
 class RestApiTest : public ::testing::Test {
  protected:
   // One server for the suite, holding map "ycbv": the ten real frames, posted one by one.
@@ -259,6 +257,57 @@ TEST_F(RestApiTest, VoxelPagesCoverTheMapOnceInKeyOrder) {
         http().Get(absl::StrCat("/v1/maps/ycbv/voxels?pageSize=100000&", box)));
     EXPECT_EQ(page.voxels_size(), in_box->voxels_size()) << box;
   }
+}
+
+// Accept: application/x-protobuf answers the same message in the protobuf binary encoding
+// (what the viewer reads), level of detail and page tokens included; JSON stays the default
+// and errors stay JSON.
+TEST_F(RestApiTest, VoxelPagesInTheProtobufBinaryEncodingAreTheCoresAnswer) {
+  const httplib::Headers binary = {{"Accept", "application/x-protobuf"}};
+  for (int level : {0, 2}) {
+    v1::GetVoxelsRequest request;
+    request.set_map("maps/ycbv");
+    request.set_page_size(700);
+    request.set_level(level);
+    auto expected = core().GetVoxels(request);
+    ASSERT_TRUE(expected.ok()) << expected.status();
+    ASSERT_GT(expected->voxels_size(), 0);
+    const std::string path = absl::StrCat("/v1/maps/ycbv/voxels?pageSize=700&level=", level);
+    const auto answer = http().Get(path, binary);
+    ASSERT_TRUE(answer);
+    ASSERT_EQ(answer->status, 200) << answer->body;
+    EXPECT_EQ(answer->get_header_value("Content-Type"), "application/x-protobuf");
+    v1::GetVoxelsResponse page;
+    ASSERT_TRUE(page.ParseFromString(answer->body)) << "level " << level;
+    EXPECT_EQ(page.voxels_size(), expected->voxels_size()) << "level " << level;
+    EXPECT_EQ(page.resolution(), expected->resolution());
+    for (int i = 0; i < page.voxels_size(); ++i) {
+      ASSERT_EQ(page.voxels(i).SerializeAsString(), expected->voxels(i).SerializeAsString()) << i;
+    }
+    // The next page by the binary answer's token is the core's next page.
+    if (!page.next_page_token().empty()) {
+      request.set_page_token(page.next_page_token());
+      auto second = core().GetVoxels(request);
+      ASSERT_TRUE(second.ok()) << second.status();
+      const auto next = http().Get(
+          absl::StrCat(path,
+                       "&pageToken=", httplib::detail::encode_query_param(page.next_page_token())),
+          binary);
+      ASSERT_TRUE(next);
+      v1::GetVoxelsResponse page2;
+      ASSERT_TRUE(page2.ParseFromString(next->body));
+      EXPECT_EQ(page2.voxels_size(), second->voxels_size());
+    }
+  }
+  // Without the header: JSON. An error under the header: JSON naming the field.
+  const auto json = http().Get("/v1/maps/ycbv/voxels?pageSize=5");
+  ASSERT_TRUE(json);
+  EXPECT_EQ(json->get_header_value("Content-Type"), "application/json");
+  const auto bad = http().Get("/v1/maps/ycbv/voxels?level=9", binary);
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, 400);
+  EXPECT_EQ(bad->get_header_value("Content-Type"), "application/json");
+  EXPECT_NE(bad->body.find("level must be in 0..8"), std::string::npos) << bad->body;
 }
 
 TEST_F(RestApiTest, RadiusSearchAnswersTheCoresVoxels) {

@@ -26,8 +26,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-constexpr char kJson[] = "application/json";
-
 // `s` percent-encoded for a query parameter (page tokens are base64).
 std::string UrlEncode(const std::string& s) {
   std::string out;

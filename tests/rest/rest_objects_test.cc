@@ -14,8 +14,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-constexpr char kJson[] = "application/json";
-
 TEST(RestObjectsTest, ObjectsAndTheInstancesOfARecognitionMap) {
   RestServer rest;
   httplib::Client& http = rest.http();

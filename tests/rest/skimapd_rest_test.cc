@@ -21,8 +21,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-constexpr char kJson[] = "application/json";
-
 // Runs skimapd with `flags` (and a throwaway data dir) until it exits; its exit code and
 // output.
 std::pair<int, std::string> RunToExit(const std::string& flags) {

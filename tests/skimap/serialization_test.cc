@@ -99,7 +99,7 @@ TEST(SerializationTest, EveryTruncationIsDetected) {
 }
 
 // Re-seals a modified body with a valid checksum, to reach the checks behind the CRC.
-std::string Reseal(std::string bytes) {
+std::string ResealBody(std::string bytes) {
   bytes.resize(bytes.size() - 4);
   const uint32_t crc = Crc32c(bytes);
   Encoder(&bytes).U32(crc);
@@ -115,12 +115,12 @@ TEST(SerializationTest, WellFormedButWrongFilesAreRejectedWithReasons) {
 
   std::string v2 = bytes;
   v2[4] = 2;  // format version
-  EXPECT_EQ(DeserializeMap<RGBWeightedVoxel>(Reseal(v2), {}).status().code(),
+  EXPECT_EQ(DeserializeMap<RGBWeightedVoxel>(ResealBody(v2), {}).status().code(),
             absl::StatusCode::kInvalidArgument);
 
   std::string huge_count = bytes;
   huge_count[kMapHeaderBytes - 1] = 0x7F;
-  EXPECT_EQ(DeserializeMap<RGBWeightedVoxel>(Reseal(huge_count), {}).status().code(),
+  EXPECT_EQ(DeserializeMap<RGBWeightedVoxel>(ResealBody(huge_count), {}).status().code(),
             absl::StatusCode::kDataLoss);
 
   std::string not_a_map = "hello world, this is not a map file at all......";
@@ -138,7 +138,7 @@ TEST(SerializationTest, OutOfOrderKeysAreRejected) {
   std::string first = bytes.substr(a, 16);
   bytes.replace(a, 16, bytes.substr(b, 16));
   bytes.replace(b, 16, first);
-  auto r = DeserializeMap<WeightVoxel>(Reseal(bytes), {});
+  auto r = DeserializeMap<WeightVoxel>(ResealBody(bytes), {});
   EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(r.status().message().find("out of order"), std::string::npos);
 }

@@ -1,5 +1,6 @@
 // The REST API of skimapd (docs/api.md), as the viewer uses it. Same origin: the viewer is
 // served by the skimapd it shows.
+import { decode } from './proto.js';
 
 async function getJson(path) {
   const response = await fetch(path, { headers: { Accept: 'application/json' } });
@@ -10,6 +11,19 @@ async function getJson(path) {
     throw error;
   }
   return body;
+}
+
+// GET `path` in the protobuf binary encoding (Accept: application/x-protobuf), decoded as
+// message type `type` (proto.js). Errors come as JSON either way.
+async function getProto(path, type) {
+  const response = await fetch(path, { headers: { Accept: 'application/x-protobuf' } });
+  if (!response.ok) {
+    const body = await response.json().catch(() => ({}));
+    const error = new Error(body.message || `${response.status} ${response.statusText}`);
+    error.status = response.status;
+    throw error;
+  }
+  return decode(type, await response.arrayBuffer());
 }
 
 export const mapId = (name) => name.replace(/^maps\//, '');
@@ -27,14 +41,15 @@ export async function listMaps() {
 
 export const getMap = (id) => getJson(`/v1/maps/${id}`);
 
-// Voxels at `level` (0 = full resolution), page after page, stopping at `cap` voxels.
+// Voxels at `level` (0 = full resolution), page after page (protobuf binary), calling
+// onPage(voxels, resolution) for each, stopping at `cap` voxels.
 export async function getVoxels(id, level, cap, onPage) {
   let token = '';
   let count = 0;
   let resolution = 0;
   do {
     const query = `level=${level}&pageSize=100000${token ? `&pageToken=${encodeURIComponent(token)}` : ''}`;
-    const page = await getJson(`/v1/maps/${id}/voxels?${query}`);
+    const page = await getProto(`/v1/maps/${id}/voxels?${query}`, 'skimap.v1.GetVoxelsResponse');
     resolution = page.resolution;
     const voxels = page.voxels || [];
     count += voxels.length;
@@ -71,7 +86,7 @@ export async function getLabelVoxels(id, cap, onPage) {
   let resolution = 0;
   do {
     const query = `pageSize=100000${token ? `&pageToken=${encodeURIComponent(token)}` : ''}`;
-    const page = await getJson(`/v1/maps/${id}/labels?${query}`);
+    const page = await getProto(`/v1/maps/${id}/labels?${query}`, 'skimap.v1.GetLabelVoxelsResponse');
     resolution = page.resolution;
     const voxels = page.voxels || [];
     count += voxels.length;

@@ -4,7 +4,7 @@
 import './style.css';
 import * as api from './api.js';
 import { count, bytes } from './format.js';
-import { View3D, DEFAULT_BUDGET, objectColour } from './view3d.js';
+import { View3D, DEFAULT_BUDGET, INTERACTIVE_MS, objectColour } from './view3d.js';
 import { RasterView, drawGrid, drawHeights } from './raster.js';
 
 const $ = (id) => document.getElementById(id);
@@ -18,7 +18,8 @@ const state = {
   band: null,
 };
 
-const view3d = new View3D($('canvas3d'), Number(params.get('budget')) || DEFAULT_BUDGET);
+const view3d = new View3D($('canvas3d'), Number(params.get('budget')) || DEFAULT_BUDGET,
+                          Number(params.get('interactiveMs')) || INTERACTIVE_MS);
 const gridView = new RasterView($('grid-canvas'), $('grid-legend'), $('coords'));
 const heightView = new RasterView($('height-canvas'), $('height-legend'), $('coords'));
 window.skimapViewer = { state, view3d, drawnPixels: () => view3d.drawnPixels() };
@@ -149,9 +150,13 @@ const loaders = {
     document.body.dataset.trajectory = String(await view3d.loadTrajectory(map));
     const lod = await view3d.load(map, (l) => {
       $('lod').textContent = `${count(l.shown)} of ${count(l.total)} voxels shown, level ${l.level}` +
-        ` (${(l.resolution * 100).toFixed(1)} cm boxes${l.truncated ? ', truncated' : ''})`;
+        ` (${(l.resolution * 100).toFixed(1)} cm boxes${l.partial ? ', loading' : l.truncated ? ', truncated' : ''})` +
+        (l.proxyShown ? `; ${count(l.proxyShown)} boxes of ${(l.proxyResolution * 100).toFixed(1)} cm while moving` : '');
     });
-    if (lod) document.body.dataset.voxelsShown = String(lod.shown);
+    if (lod) {
+      document.body.dataset.voxelsShown = String(lod.shown);
+      document.body.dataset.proxyShown = String(lod.proxyShown);
+    }
     const recognition = Boolean(map.options?.recognition?.enabled);
     $('labels-toggle').hidden = !recognition;
     $('fit-instances').hidden = !recognition;

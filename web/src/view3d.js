@@ -7,12 +7,24 @@
 // Level of detail (docs/viewer.md): the viewer draws at most `budget` voxels. It asks the
 // server for the smallest level L (GetVoxels ?level=L: one voxel per block of 2^L voxels a
 // side) with stats.voxels / 4^L <= budget (a surface keeps about a quarter of its voxels
-// per level), and stops paging at 2 x budget whatever the level gave.
+// per level), and stops paging at 2 x budget whatever the level gave. Pages come in the
+// protobuf binary encoding; a map's first load draws each page as it arrives (a reload
+// swaps the mesh when complete, so a live map does not flicker).
+//
+// Interaction: once loaded, one frame of the voxels is timed; if it takes longer than
+// INTERACTIVE_MS (?interactiveMs=), a coarser proxy (blocks of m x m x m voxels merged here, m the smallest
+// power of two that brings the box count under the frame budget, keeping about
+// MIN_PROXY_BOXES at least) is drawn instead while the
+// camera moves, and the full level again once it settles.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { getLabelVoxels, getTrajectory, getVoxels, listInstances } from './api.js';
 
 export const DEFAULT_BUDGET = 200000;
+// The frame time the view aims at while the camera moves.
+export const INTERACTIVE_MS = 40;
+// The proxy keeps at least about this many boxes (coarser would no longer show the map).
+const MIN_PROXY_BOXES = 1000;
 const BACKGROUND = 0x15171a;
 // Label voxels: a colour per object id (the palette repeats after 10 objects); white for a
 // class the map's classifier does not know (obj_id 0).
@@ -30,9 +42,10 @@ export function chooseLevel(voxels, budget) {
 }
 
 export class View3D {
-  constructor(container, budget = DEFAULT_BUDGET) {
+  constructor(container, budget = DEFAULT_BUDGET, interactiveMs = INTERACTIVE_MS) {
     this.container = container;
     this.budget = budget;
+    this.interactiveMs = interactiveMs;
     this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(window.devicePixelRatio);
     this.renderer.setClearColor(BACKGROUND);
@@ -48,6 +61,10 @@ export class View3D {
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.enableDamping = true;
     this.controls.addEventListener('change', () => this.requestRender());
+    this.interacting = false;  // a pointer drags the camera
+    this.controls.addEventListener('start', () => { this.interacting = true; });
+    this.controls.addEventListener('end', () => { this.interacting = false; this.requestRender(); });
+    this.proxy = null;  // the coarse voxels drawn while the camera moves (or null)
     this.axes = new THREE.AxesHelper(0.3);
     this.scene.add(this.axes);
     this.voxels = null;
@@ -79,13 +96,34 @@ export class View3D {
     if (this.pending) return;
     this.pending = requestAnimationFrame(() => {
       this.pending = 0;
-      if (this.controls.update()) this.requestRender();
-      this.renderer.render(this.scene, this.camera);
-      // For the benchmark (bench/viewer_bench.mjs): when the voxels were first drawn.
-      if (this.voxels && this.voxels.count > 0 && this.firstVoxelRender === undefined) {
-        this.firstVoxelRender = performance.now();
-      }
+      const moving = this.controls.update();
+      if (moving) this.requestRender();
+      this.renderFrame(moving || this.interacting);
     });
+  }
+
+  // Draws one frame: with the coarse proxy instead of the voxels when `moving` and a proxy
+  // exists.
+  renderFrame(moving) {
+    const proxy = Boolean(moving && this.proxy);
+    if (this.voxels) this.voxels.visible = !proxy;
+    if (this.proxy) this.proxy.visible = proxy;
+    this.renderer.render(this.scene, this.camera);
+    // For the benchmark (bench/viewer_bench.mjs): when the voxels were first drawn.
+    if (this.voxels && this.voxels.count > 0 && this.firstVoxelRender === undefined) {
+      this.firstVoxelRender = performance.now();
+    }
+  }
+
+  // Milliseconds to draw and finish one frame with the full voxels (a 1-pixel readPixels
+  // waits for the GPU, or for SwiftShader's CPU rasteriser).
+  timeFrame() {
+    const gl = this.renderer.getContext();
+    const pixel = new Uint8Array(4);
+    const start = performance.now();
+    this.renderFrame(false);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
+    return performance.now() - start;
   }
 
   // Fits the camera to the map's bounds once per map.
@@ -122,7 +160,8 @@ export class View3D {
     return true;
   }
 
-  // (Re)loads the voxels of `map` (a v1.Map); reports the level of detail with onLod.
+  // (Re)loads the voxels of `map` (a v1.Map); reports the level of detail with onLod
+  // (also after the first page of a first load, with `partial` set).
   async load(map, onLod) {
     const id = map.name.replace(/^maps\//, '');
     const voxels = Number(map.stats.voxels || 0);
@@ -130,60 +169,85 @@ export class View3D {
     const token = {};
     this.loading = token;
     const cap = 2 * this.budget;
-    const positions = [];
-    const colours = [];
+    // Progressive on a map's first load: draw each page as it comes.
+    const progressive = !this.voxels || this.framed !== map.name;
+    const cloud = new VoxelCloud(cap);
     const fetchStart = performance.now();
-    const result = await getVoxels(id, level, cap, (page) => {
-      for (const v of page) {
-        positions.push(v.center.x || 0, v.center.y || 0, v.center.z || 0);
-        colours.push(v.rgb || 0);
+    let firstPage = null;
+    const result = await getVoxels(id, level, cap, (page, resolution) => {
+      if (this.loading !== token) return;
+      cloud.add(page, resolution);
+      if (progressive && firstPage === null) {
+        firstPage = performance.now() - fetchStart;
+        this.showCloud(cloud);
+        this.frame(map);
+        if (onLod) onLod({ level, shown: cloud.count, total: voxels, truncated: true, partial: true, resolution });
+      } else if (progressive) {
+        cloud.sync(this.voxels);
+        this.requestRender();
       }
     });
     if (this.loading !== token) return null;  // a newer load started
     const buildStart = performance.now();
-    this.show(positions, colours, result.resolution);
+    if (progressive) cloud.sync(this.voxels);
+    else this.showCloud(cloud);
     this.frame(map);
-    const lod = { level, shown: positions.length / 3, total: voxels, truncated: result.truncated,
-                  resolution: result.resolution, fetchMs: buildStart - fetchStart,
-                  buildMs: performance.now() - buildStart };
+    const frameMs = this.timeFrame();
+    this.buildProxy(cloud, frameMs);
+    const lod = { level, shown: cloud.count, total: voxels, truncated: result.truncated,
+                  resolution: result.resolution, firstPageMs: firstPage ?? buildStart - fetchStart,
+                  fetchMs: buildStart - fetchStart, buildMs: performance.now() - buildStart - frameMs,
+                  frameMs, proxyShown: this.proxy ? this.proxy.count : 0,
+                  proxyResolution: this.proxyResolution || 0, loadedAt: buildStart };
     this.lastLod = lod;
     if (onLod) onLod(lod);
     this.requestRender();
     return lod;
   }
 
-  show(positions, colours, resolution) {
+  // Shows `cloud` (a VoxelCloud) as the voxels, replacing the previous ones and their proxy.
+  showCloud(cloud) {
     if (this.voxels) {
       this.scene.remove(this.voxels);
       disposeMesh(this.voxels);
     }
-    this.voxels = instancedBoxes(positions, colours, resolution);
-    this.voxelColours = colours;
+    this.dropProxy();
+    this.voxels = cloud.mesh();
+    this.voxelColours = cloud.colours;
     this.greyVoxels(this.labels.visible);
     this.scene.add(this.voxels);
+    this.requestRender();
   }
 
-  // Colours the RGB voxels by their colour, or (grey = true) by its dimmed luminance.
+  dropProxy() {
+    if (!this.proxy) return;
+    this.scene.remove(this.proxy);
+    disposeMesh(this.proxy);
+    this.proxy = null;
+    this.proxyResolution = 0;
+  }
+
+  // A coarse copy of `cloud` for the moving camera when a full frame took `frameMs` >
+  // INTERACTIVE_MS: blocks of m voxels a side (m = 2, 4, ...: a surface keeps about 1/m^2
+  // of its voxels) with the mean colour, m the smallest that fits the frame time.
+  buildProxy(cloud, frameMs) {
+    this.dropProxy();
+    if (frameMs <= this.interactiveMs || cloud.count === 0) return;
+    let m = 2;
+    while (m < 256 && frameMs / (m * m) > this.interactiveMs && cloud.count / (4 * m * m) >= MIN_PROXY_BOXES) m *= 2;
+    const coarse = cloud.coarsen(m);
+    this.proxy = coarse.mesh();
+    this.proxy.visible = false;
+    this.proxyResolution = coarse.resolution;
+    if (this.labels.visible) greyMesh(this.proxy, coarse.colours, true);
+    this.scene.add(this.proxy);
+  }
+
+  // Colours the RGB voxels (and their proxy) by their colour, or (grey = true) by its
+  // dimmed luminance, see-through: the labels lie on surfaces inside them.
   greyVoxels(grey) {
-    if (!this.voxels || !this.voxelColours) return;
-    const c = new THREE.Color();
-    this.voxelColours.forEach((rgb, i) => {
-      const r = (rgb >> 16) & 255, g = (rgb >> 8) & 255, b = rgb & 255;
-      if (grey) {
-        const y = (0.3 * (0.2126 * r + 0.7152 * g + 0.0722 * b) + 40) / 255;
-        c.setRGB(y, y, y, THREE.SRGBColorSpace);
-      } else {
-        c.setRGB(r / 255, g / 255, b / 255, THREE.SRGBColorSpace);
-      }
-      this.voxels.setColorAt(i, c);
-    });
-    if (this.voxels.instanceColor) this.voxels.instanceColor.needsUpdate = true;
-    // Under the labels the voxels are see-through: the labels lie on surfaces inside them.
-    const material = this.voxels.material;
-    material.transparent = grey;
-    material.opacity = grey ? 0.25 : 1;
-    material.depthWrite = !grey;
-    material.needsUpdate = true;
+    if (this.voxels && this.voxelColours) greyMesh(this.voxels, this.voxelColours, grey);
+    if (this.proxy) greyMesh(this.proxy, this.proxy.userData.colours, grey);
   }
 
   // (Re)loads the Labels volume of `map` (GET /v1/maps/{map}/labels, at most 2 x budget
@@ -320,26 +384,133 @@ export class View3D {
   }
 }
 
+// Voxel centres and colours gathered page by page into typed arrays of a fixed capacity,
+// drawn as one THREE.InstancedMesh of boxes (one per voxel).
+class VoxelCloud {
+  constructor(capacity) {
+    this.capacity = Math.max(capacity, 1);
+    this.positions = new Float32Array(3 * this.capacity);
+    this.colours = new Uint32Array(this.capacity);  // 0xRRGGBB, sRGB
+    this.count = 0;
+    this.resolution = 0;
+    this.synced = 0;  // voxels already copied into the mesh
+  }
+
+  // Appends v1.Voxel-like entries ({center: {x, y, z}, rgb}) up to the capacity.
+  add(voxels, resolution) {
+    this.resolution = resolution;
+    for (const v of voxels) {
+      if (this.count === this.capacity) break;
+      const c = v.center;
+      const i = this.count++;
+      this.positions[3 * i] = c?.x || 0;
+      this.positions[3 * i + 1] = c?.y || 0;
+      this.positions[3 * i + 2] = c?.z || 0;
+      this.colours[i] = v.rgb || 0;
+    }
+  }
+
+  addArrays(positions, colours, resolution) {
+    this.resolution = resolution;
+    for (let i = 0; i < colours.length && this.count < this.capacity; i++) {
+      const j = this.count++;
+      this.positions[3 * j] = positions[3 * i];
+      this.positions[3 * j + 1] = positions[3 * i + 1];
+      this.positions[3 * j + 2] = positions[3 * i + 2];
+      this.colours[j] = colours[i];
+    }
+  }
+
+  // A new InstancedMesh of the voxels so far (room for the capacity).
+  mesh() {
+    const mesh = new THREE.InstancedMesh(
+      new THREE.BoxGeometry(this.resolution, this.resolution, this.resolution),
+      new THREE.MeshLambertMaterial(), this.capacity);
+    mesh.count = 0;
+    mesh.userData.colours = this.colours;
+    this.synced = 0;
+    this.sync(mesh);
+    return mesh;
+  }
+
+  // Copies the voxels added since the last sync into `mesh` (made by mesh()).
+  sync(mesh) {
+    const m = new THREE.Matrix4();
+    const c = new THREE.Color();
+    for (let i = this.synced; i < this.count; i++) {
+      m.makeTranslation(this.positions[3 * i], this.positions[3 * i + 1], this.positions[3 * i + 2]);
+      mesh.setMatrixAt(i, m);
+      const rgb = this.colours[i];
+      c.setRGB(((rgb >> 16) & 255) / 255, ((rgb >> 8) & 255) / 255, (rgb & 255) / 255, THREE.SRGBColorSpace);
+      mesh.setColorAt(i, c);
+    }
+    this.synced = this.count;
+    mesh.count = this.count;
+    mesh.instanceMatrix.needsUpdate = true;
+    if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
+    mesh.computeBoundingSphere();
+  }
+
+  // A cloud of blocks of m x m x m voxels (on a grid anchored at the first voxel): each
+  // non-empty block's centre of voxels and mean colour.
+  coarsen(m) {
+    const edge = this.resolution * m;
+    const blocks = new Map();  // block index -> [sum x, y, z, r, g, b, n]
+    const [ox, oy, oz] = [this.positions[0], this.positions[1], this.positions[2]];
+    const SPAN = 1 << 20;
+    for (let i = 0; i < this.count; i++) {
+      const x = this.positions[3 * i], y = this.positions[3 * i + 1], z = this.positions[3 * i + 2];
+      const key = ((Math.floor((x - ox) / edge) + SPAN / 2) * SPAN + (Math.floor((y - oy) / edge) + SPAN / 2)) * SPAN +
+        (Math.floor((z - oz) / edge) + SPAN / 2);
+      let b = blocks.get(key);
+      if (!b) blocks.set(key, (b = [0, 0, 0, 0, 0, 0, 0]));
+      const rgb = this.colours[i];
+      b[0] += x; b[1] += y; b[2] += z;
+      b[3] += (rgb >> 16) & 255; b[4] += (rgb >> 8) & 255; b[5] += rgb & 255; b[6]++;
+    }
+    const coarse = new VoxelCloud(blocks.size);
+    coarse.resolution = edge;
+    for (const b of blocks.values()) {
+      const i = coarse.count++;
+      const n = b[6];
+      coarse.positions[3 * i] = b[0] / n;
+      coarse.positions[3 * i + 1] = b[1] / n;
+      coarse.positions[3 * i + 2] = b[2] / n;
+      coarse.colours[i] = (Math.round(b[3] / n) << 16) | (Math.round(b[4] / n) << 8) | Math.round(b[5] / n);
+    }
+    return coarse;
+  }
+}
+
+// Colours `mesh`'s instances by `colours` (0xRRGGBB), or grey: by their dimmed luminance and
+// see-through.
+function greyMesh(mesh, colours, grey) {
+  const c = new THREE.Color();
+  for (let i = 0; i < mesh.count; i++) {
+    const rgb = colours[i];
+    const r = (rgb >> 16) & 255, g = (rgb >> 8) & 255, b = rgb & 255;
+    if (grey) {
+      const y = (0.3 * (0.2126 * r + 0.7152 * g + 0.0722 * b) + 40) / 255;
+      c.setRGB(y, y, y, THREE.SRGBColorSpace);
+    } else {
+      c.setRGB(r / 255, g / 255, b / 255, THREE.SRGBColorSpace);
+    }
+    mesh.setColorAt(i, c);
+  }
+  if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
+  const material = mesh.material;
+  material.transparent = grey;
+  material.opacity = grey ? 0.25 : 1;
+  material.depthWrite = !grey;
+  material.needsUpdate = true;
+}
+
 // One THREE.InstancedMesh of boxes of edge `edge` at `positions` (x, y, z, ...) with
 // `colours` (0xRRGGBB, sRGB).
 function instancedBoxes(positions, colours, edge) {
-  const n = colours.length;
-  const geometry = new THREE.BoxGeometry(edge, edge, edge);
-  const mesh = new THREE.InstancedMesh(geometry, new THREE.MeshLambertMaterial(), Math.max(n, 1));
-  mesh.count = n;
-  const m = new THREE.Matrix4();
-  const c = new THREE.Color();
-  for (let i = 0; i < n; i++) {
-    m.makeTranslation(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
-    mesh.setMatrixAt(i, m);
-    const rgb = colours[i];
-    c.setRGB(((rgb >> 16) & 255) / 255, ((rgb >> 8) & 255) / 255, (rgb & 255) / 255, THREE.SRGBColorSpace);
-    mesh.setColorAt(i, c);
-  }
-  mesh.instanceMatrix.needsUpdate = true;
-  if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
-  mesh.computeBoundingSphere();
-  return mesh;
+  const cloud = new VoxelCloud(colours.length);
+  cloud.addArrays(positions, colours, edge);
+  return cloud.mesh();
 }
 
 function disposeMesh(mesh) {

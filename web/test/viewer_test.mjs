@@ -119,6 +119,28 @@ try {
   const coarsePixels = await coarse.evaluate(() => window.skimapViewer.drawnPixels());
   check(coarsePixels.drawn > 0.02 * coarsePixels.total, `the coarse view drew ${coarsePixels.drawn} pixels`);
   await coarse.screenshot({ path: join(args.out, 'viewer-lod.png') });
+
+  // Moving the camera: with a frame-time target below any real frame, the viewer merges
+  // the voxels into coarser blocks and draws those while the camera is dragged, the full
+  // level again once the drag ends.
+  const moving = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  moving.on('pageerror', (e) => errors.push(String(e)));
+  await moving.goto(`${base}/?interactiveMs=0.01#map=ycbv&tab=view3d`);
+  await moving.waitForSelector('body[data-voxels-shown]', { timeout: 60000 });
+  const full = Number(await moving.getAttribute('body', 'data-voxels-shown'));
+  const proxy = Number(await moving.getAttribute('body', 'data-proxy-shown'));
+  check(proxy > 0 && proxy < full, `while moving the view draws ${proxy} blocks for ${full} voxels (${await moving.textContent('#lod')})`);
+  const canvas = await moving.locator('#canvas3d canvas').boundingBox();
+  await moving.mouse.move(canvas.x + canvas.width / 2, canvas.y + canvas.height / 2);
+  await moving.mouse.down();
+  await moving.mouse.move(canvas.x + canvas.width / 2 + 120, canvas.y + canvas.height / 2 + 30, { steps: 5 });
+  await moving.waitForFunction(() => window.skimapViewer.view3d.proxy.visible, null, { timeout: 10000 }).catch(() => {});
+  const during = await moving.evaluate(() => ({ proxy: window.skimapViewer.view3d.proxy.visible, voxels: window.skimapViewer.view3d.voxels.visible }));
+  check(during.proxy && !during.voxels, `during the drag the proxy shows (${JSON.stringify(during)})`);
+  await moving.screenshot({ path: join(args.out, 'viewer-moving.png') });
+  await moving.mouse.up();
+  await moving.waitForFunction(() => window.skimapViewer.view3d.voxels.visible, null, { timeout: 30000 });
+  check(!(await moving.evaluate(() => window.skimapViewer.view3d.proxy.visible)), 'after the drag the full level shows again');
   check(errors.length === 0, `no page errors${errors.length ? `: ${errors.join('; ')}` : ''}`);
 } finally {
   if (browser) await browser.close();
