@@ -2,27 +2,46 @@
 // served by the skimapd it shows.
 import { decode } from './proto.js';
 
-async function getJson(path) {
-  const response = await fetch(path, { headers: { Accept: 'application/json' } });
+// The bearer token for a skimapd with --auth_tokens_file (docs/operations.md, "Auth"),
+// kept in this tab's sessionStorage and sent on every call; '' = none.
+const TOKEN_KEY = 'skimapToken';
+export const token = {
+  get: () => sessionStorage.getItem(TOKEN_KEY) || '',
+  set: (value) => (value ? sessionStorage.setItem(TOKEN_KEY, value) : sessionStorage.removeItem(TOKEN_KEY)),
+};
+
+// Called when the server answers 401 (no token, or one it does not know).
+let authNeeded = () => {};
+export function onAuthNeeded(callback) {
+  authNeeded = callback;
+}
+
+function headers(accept) {
+  const h = { Accept: accept };
+  if (token.get()) h.Authorization = `Bearer ${token.get()}`;
+  return h;
+}
+
+// The error of a failed response: its RestError message, with .status.
+async function failure(response) {
   const body = await response.json().catch(() => ({}));
-  if (!response.ok) {
-    const error = new Error(body.message || `${response.status} ${response.statusText}`);
-    error.status = response.status;
-    throw error;
-  }
-  return body;
+  const error = new Error(body.message || `${response.status} ${response.statusText}`);
+  error.status = response.status;
+  if (response.status === 401) authNeeded(error);
+  return error;
+}
+
+export async function getJson(path) {
+  const response = await fetch(path, { headers: headers('application/json') });
+  if (!response.ok) throw await failure(response);
+  return response.json();
 }
 
 // GET `path` in the protobuf binary encoding (Accept: application/x-protobuf), decoded as
 // message type `type` (proto.js). Errors come as JSON either way.
 async function getProto(path, type) {
-  const response = await fetch(path, { headers: { Accept: 'application/x-protobuf' } });
-  if (!response.ok) {
-    const body = await response.json().catch(() => ({}));
-    const error = new Error(body.message || `${response.status} ${response.statusText}`);
-    error.status = response.status;
-    throw error;
-  }
+  const response = await fetch(path, { headers: headers('application/x-protobuf') });
+  if (!response.ok) throw await failure(response);
   return decode(type, await response.arrayBuffer());
 }
 
@@ -108,12 +127,56 @@ export async function listObjects() {
   return objects;
 }
 
-// Live updates: calls onMap(map) for each `event: map`; returns the EventSource.
+// Live updates (GET /v1/maps/{map}/events, server-sent events): calls onMap(map) for each
+// `event: map` and onState(open) as the stream opens and closes; reconnects after 1, 2, 4 ..
+// 10 s. Read with fetch, not EventSource, which cannot send the Authorization header.
+// Returns {close()}.
 export function watchMap(id, onMap, onState) {
-  const source = new EventSource(`/v1/maps/${id}/events`);
-  source.addEventListener('map', (event) => onMap(JSON.parse(event.data)));
-  source.addEventListener('gone', () => onState(false));
-  source.onopen = () => onState(true);
-  source.onerror = () => onState(false);
-  return source;
+  const controller = new AbortController();
+  let closed = false;
+  const run = async () => {
+    let delay = 1000;
+    while (!closed) {
+      try {
+        const response = await fetch(`/v1/maps/${id}/events`,
+                                     { headers: headers('text/event-stream'), signal: controller.signal });
+        if (!response.ok) throw await failure(response);
+        onState(true);
+        delay = 1000;
+        const reader = response.body.pipeThrough(new TextDecoderStream()).getReader();
+        let buffer = '';
+        for (;;) {
+          const { value, done } = await reader.read();
+          if (done) break;
+          buffer += value.replace(/\r\n?/g, '\n');
+          let end;
+          while ((end = buffer.indexOf('\n\n')) >= 0) {
+            const block = buffer.slice(0, end);
+            buffer = buffer.slice(end + 2);
+            let event = 'message';
+            const data = [];
+            for (const line of block.split('\n')) {
+              if (line.startsWith('event:')) event = line.slice(6).trim();
+              else if (line.startsWith('data:')) data.push(line.slice(5).replace(/^ /, ''));
+            }
+            if (event === 'map' && data.length) onMap(JSON.parse(data.join('\n')));
+            if (event === 'gone') onState(false);
+          }
+        }
+      } catch (error) {
+        if (closed) return;
+      }
+      onState(false);
+      if (closed) return;
+      await new Promise((resolve) => setTimeout(resolve, delay));
+      delay = Math.min(2 * delay, 10000);
+    }
+  };
+  run();
+  return {
+    close() {
+      closed = true;
+      controller.abort();
+    },
+  };
 }

@@ -97,7 +97,7 @@ async function refreshList() {
 const extents = new Map();  // "objects/{id}" -> promise of {min, max} in the model frame
 function objectExtent(object) {
   if (!extents.has(object)) {
-    extents.set(object, fetch(`/v1/${object}?view=OBJECT_VIEW_FULL`).then((r) => r.json()).then((o) => {
+    extents.set(object, api.getJson(`/v1/${object}?view=OBJECT_VIEW_FULL`).then((o) => {
       const v = o.rgbVoxels || [];
       if (!v.length) return null;
       const min = [Infinity, Infinity, Infinity];
@@ -305,6 +305,24 @@ $('show-labels').addEventListener('change', async () => {
   }
 });
 window.addEventListener('resize', () => { gridView.fit(); heightView.fit(); });
+
+// Auth: a 401 shows the token form (the status line says the server's reason); a token given there is kept for this tab
+// (api.token) and the page starts again with it.
+api.onAuthNeeded(() => {
+  $('token-form').hidden = false;
+  $('sign-out').hidden = true;
+  document.body.dataset.authNeeded = '1';
+});
+$('sign-out').hidden = !api.token.get();
+$('sign-out').addEventListener('click', () => {
+  api.token.set('');
+  location.reload();
+});
+$('token-form').addEventListener('submit', (event) => {
+  event.preventDefault();
+  api.token.set($('token').value.trim());
+  location.reload();
+});
 
 (async () => {
   await refreshList();

@@ -99,11 +99,12 @@ export async function stopSkimapd(server) {
   await new Promise((resolve) => server.once('exit', resolve));
 }
 
-// One REST call; the parsed JSON reply, or throws with the status and error body.
-export async function call(base, method, path, body) {
-  const response = await fetch(base + path, {
-    method, headers: { 'Content-Type': 'application/json' }, body: body && JSON.stringify(body),
-  });
+// One REST call (with a bearer token if given); the parsed JSON reply, or throws with the
+// status and error body.
+export async function call(base, method, path, body, token) {
+  const headers = { 'Content-Type': 'application/json' };
+  if (token) headers.Authorization = `Bearer ${token}`;
+  const response = await fetch(base + path, { method, headers, body: body && JSON.stringify(body) });
   const json = await response.json();
   if (!response.ok) throw new Error(`${method} ${path}: ${response.status} ${JSON.stringify(json)}`);
   return json;
