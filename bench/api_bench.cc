@@ -10,13 +10,15 @@
 // 3 m around the box. Then, for each request, side by side:
 //   grid        GetOccupancyGrid of the whole map: gRPC (protobuf) vs REST JSON
 //               (GET /v1/maps/m/occupancyGrid) and REST PGM (?format=pgm)
-//   voxels 10k  GetVoxels, the first page of 10 000 voxels: gRPC vs REST JSON
-//   voxels 100k GetVoxels, the first page of 100 000 voxels: gRPC vs REST JSON
+//   voxels 10k  GetVoxels, the first page of 10 000 voxels: gRPC vs REST JSON and REST
+//               protobuf (Accept: application/x-protobuf, what the viewer reads)
+//   voxels 100k GetVoxels, the first page of 100 000 voxels: the same three
 // Latency: --requests calls one after the other (gRPC and REST alternating), from the send
-// to the decoded message (protobuf parse for gRPC, JSON parse into the same message for
-// REST, PGM decoded into grid cells); for REST also the part until the body was in (the
-// server's work, JSON printing included, and the transfer). Throughput: --clients threads calling
-// for --seconds each, requests/s and decoded MB/s (the gRPC message's size).
+// to the decoded message (protobuf parse for gRPC and REST protobuf, JSON parse into the
+// same message for REST JSON, PGM decoded into grid cells); for REST also the part until the
+// body was in (the server's work, JSON printing included, and the transfer). Throughput:
+// --clients threads calling for --seconds each, requests/s and decoded MB/s (the gRPC
+// message's size).
 //
 // Checks (CHECK FAILED and exit 1): every REST answer decodes to exactly the gRPC answer
 // (the same message for JSON; the same size and cells for PGM), before and during timing.
@@ -260,6 +262,22 @@ int Main() {
            httplib::Result r = http[c]->Get(absl::StrCat("/v1/maps/m/voxels?pageSize=", page));
            http_ms = Ms(Clock::now() - t0);
            ParseJsonInto(r, "REST voxels", static_cast<v1::GetVoxelsResponse*>(out));
+           *wire = r->body.size();
+         }});
+    // The same route in the protobuf binary encoding (Accept: application/x-protobuf), as
+    // the viewer reads voxel pages: the same bytes as gRPC's answer, over HTTP/1.1.
+    voxels.ways.push_back(
+        {"REST protobuf", [] { return std::make_unique<v1::GetVoxelsResponse>(); },
+         [&, page](int c, google::protobuf::Message* out, size_t* wire) {
+           const Clock::time_point t0 = Clock::now();
+           httplib::Result r = http[c]->Get(absl::StrCat("/v1/maps/m/voxels?pageSize=", page),
+                                            {{"Accept", "application/x-protobuf"}});
+           http_ms = Ms(Clock::now() - t0);
+           if (!r || r->status != 200 ||
+               r->get_header_value("Content-Type") != "application/x-protobuf" ||
+               !out->ParseFromString(r->body)) {
+             CheckFailed("REST protobuf voxels");
+           }
            *wire = r->body.size();
          }});
     requests.push_back(std::move(voxels));

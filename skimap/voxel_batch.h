@@ -132,6 +132,47 @@ class VoxelBatch {
   static constexpr size_t kParallelMinPoints = 1 << 14;
   static constexpr size_t kParallelMinItems = 1 << 14;
 
+  // Run-merges observations as they come: the open run (last, acc) of equal consecutive
+  // keys is stored at out[n] after every point and n advances only when the key changes
+  // (a store per point instead of a branch on the key). Add() the points, then Finish().
+  struct RunWriter {
+    Item* out;
+    size_t n = 0;
+    bool open = false;
+    VoxelKey last;
+    V acc{};
+
+    void Add(const VoxelKey& k, V d) {
+      if (!open) {
+        open = true;
+        last = k;
+        acc = std::move(d);
+        return;
+      }
+      const bool same = SameKey(k, last);
+      out[n] = Item{last, acc};
+      n += !same;
+      if constexpr (internal::kZeroBytesDefault<V>) {
+        // acc = same ? acc : V{}, with a mask instead of the branch GCC would emit.
+        std::array<uint32_t, sizeof(V) / 4> words = std::bit_cast<decltype(words)>(acc);
+        const uint32_t mask = 0u - static_cast<uint32_t>(same);
+        for (uint32_t& w : words) w &= mask;
+        acc = std::bit_cast<V>(words);
+        acc += d;
+      } else if (same) {
+        acc += d;
+      } else {
+        acc = std::move(d);
+      }
+      last = k;
+    }
+    // How many items were written to out[0..).
+    size_t Finish() {
+      if (!open) return 0;
+      out[n] = Item{last, std::move(acc)};
+      return n + 1;
+    }
+  };
   // Writes the run-merged observations of points [begin, end) to out[0..) and returns how
   // many; counts rejected points in *rejected.
   template <class Fn>
@@ -164,27 +205,8 @@ template <Voxel V>
 template <class Fn>
 size_t VoxelBatch<V>::AddRange(const Grid& grid, size_t begin, size_t end, Fn& get, Item* out,
                                size_t* rejected) {
-  // The first point with a key opens the first run.
-  size_t i = begin;
-  VoxelKey last;
-  V acc;
-  for (;; ++i) {
-    if (i == end) return 0;
-    Point3 p;
-    V d;
-    if (!get(i, &p, &d)) continue;
-    if (!grid.ToKey(p, &last)) {
-      ++*rejected;
-      continue;
-    }
-    acc = std::move(d);
-    ++i;
-    break;
-  }
-  // The open run (last, acc) lives in registers and is stored at out[n] after every point;
-  // n advances only when the key changes.
-  size_t n = 0;
-  for (; i < end; ++i) {
+  RunWriter runs{out};
+  for (size_t i = begin; i < end; ++i) {
     Point3 p;
     V d;
     if (!get(i, &p, &d)) continue;
@@ -193,25 +215,9 @@ size_t VoxelBatch<V>::AddRange(const Grid& grid, size_t begin, size_t end, Fn& g
       ++*rejected;
       continue;
     }
-    const bool same = SameKey(k, last);
-    out[n] = Item{last, acc};
-    n += !same;
-    if constexpr (internal::kZeroBytesDefault<V>) {
-      // acc = same ? acc : V{}, with a mask instead of the branch GCC would emit.
-      std::array<uint32_t, sizeof(V) / 4> words = std::bit_cast<decltype(words)>(acc);
-      const uint32_t mask = 0u - static_cast<uint32_t>(same);
-      for (uint32_t& w : words) w &= mask;
-      acc = std::bit_cast<V>(words);
-      acc += d;
-    } else if (same) {
-      acc += d;
-    } else {
-      acc = std::move(d);
-    }
-    last = k;
+    runs.Add(k, std::move(d));
   }
-  out[n] = Item{last, std::move(acc)};
-  return n + 1;
+  return runs.Finish();
 }
 
 template <Voxel V>
@@ -248,12 +254,7 @@ template <Voxel V>
 template <class RowFn>
 size_t VoxelBatch<V>::AddRowRange(const Grid& grid, size_t begin, size_t end, size_t cols,
                                   RowFn& fill_row, RowScratch& s, Item* out, size_t* rejected) {
-  // As AddRange: the open run (last, acc) is stored at out[n] after every point and n
-  // advances when the key changes; `open` is false until the first point with a key.
-  size_t n = 0;
-  bool open = false;
-  VoxelKey last;
-  V acc{};
+  RunWriter runs{out};
   for (size_t r = begin; r < end; ++r) {
     fill_row(r, s.points.data(), s.data.data(), s.use.data());
     for (size_t c = 0; c < cols; ++c) {
@@ -263,32 +264,10 @@ size_t VoxelBatch<V>::AddRowRange(const Grid& grid, size_t begin, size_t end, si
         ++*rejected;
         continue;
       }
-      if (!open) {
-        open = true;
-        last = k;
-        acc = s.data[c];
-        continue;
-      }
-      const bool same = SameKey(k, last);
-      out[n] = Item{last, acc};
-      n += !same;
-      if constexpr (internal::kZeroBytesDefault<V>) {
-        std::array<uint32_t, sizeof(V) / 4> words = std::bit_cast<decltype(words)>(acc);
-        const uint32_t mask = 0u - static_cast<uint32_t>(same);
-        for (uint32_t& w : words) w &= mask;
-        acc = std::bit_cast<V>(words);
-        acc += s.data[c];
-      } else if (same) {
-        acc += s.data[c];
-      } else {
-        acc = s.data[c];
-      }
-      last = k;
+      runs.Add(k, s.data[c]);
     }
   }
-  if (!open) return 0;
-  out[n] = Item{last, std::move(acc)};
-  return n + 1;
+  return runs.Finish();
 }
 
 template <Voxel V>

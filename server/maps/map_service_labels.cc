@@ -20,11 +20,7 @@ constexpr int kMaxPage = 100000;
 uint32_t LabelQueryFingerprint(const LiveMap& map, const v1::GetLabelVoxelsRequest& r) {
   std::string filters;
   Encoder e(&filters);
-  e.U8(r.has_box());
-  const v1::Box3& b = r.box();
-  for (double v : {b.min().x(), b.min().y(), b.min().z(), b.max().x(), b.max().y(), b.max().z()}) {
-    e.F64(v);
-  }
+  EncodeQueryBox(r.has_box(), r.box(), e);
   e.U32(r.min_count());
   return QueryFingerprint(map.incarnation(), "GetLabelVoxels", filters);
 }

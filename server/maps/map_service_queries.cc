@@ -88,11 +88,7 @@ void FillGeometry(const RasterGeometry& g, uint64_t frames, Raster* out) {
 uint32_t VoxelQueryFingerprint(const LiveMap& map, const v1::GetVoxelsRequest& request) {
   std::string filters;
   Encoder e(&filters);
-  e.U8(request.has_box());
-  const v1::Box3& b = request.box();
-  for (double v : {b.min().x(), b.min().y(), b.min().z(), b.max().x(), b.max().y(), b.max().z()}) {
-    e.F64(v);
-  }
+  EncodeQueryBox(request.has_box(), request.box(), e);
   e.U8(request.has_min_voxel_weight());
   e.F32(request.min_voxel_weight());
   if (request.level() != 0) e.U8(uint8_t(request.level()));  // tokens of level 0 unchanged

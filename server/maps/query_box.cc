@@ -21,4 +21,11 @@ absl::StatusOr<KeyBox> QueryKeyBox(const Grid& grid, bool has_box, const v1::Box
   return keys;
 }
 
+void EncodeQueryBox(bool has_box, const v1::Box3& b, Encoder& e) {
+  e.U8(has_box);
+  for (double v : {b.min().x(), b.min().y(), b.min().z(), b.max().x(), b.max().y(), b.max().z()}) {
+    e.F64(v);
+  }
+}
+
 }  // namespace skimap::server
