@@ -68,6 +68,10 @@ class TlsProcessTest : public ::testing::Test {
     https->set_ca_cert_path(pki_->Path("ca.pem").c_str());
     https->enable_server_certificate_verification(true);
     https->set_connection_timeout(5);
+    // A refused handshake may leave the client reading: without this it waits out
+    // cpp-httplib's default read timeout of 300 s.
+    https->set_read_timeout(10);
+    https->set_write_timeout(10);
     httplib::Result r = https->Get("/healthz");
     return r ? r->status : -1;
   }
