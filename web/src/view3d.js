@@ -12,10 +12,10 @@
 // swaps the mesh when complete, so a live map does not flicker).
 //
 // Interaction: once loaded, one frame of the voxels is timed; if it takes longer than
-// INTERACTIVE_MS (?interactiveMs=), a coarser proxy (blocks of m x m x m voxels merged here, m the smallest
-// power of two that brings the box count under the frame budget, keeping about
-// MIN_PROXY_BOXES at least) is drawn instead while the
-// camera moves, and the full level again once it settles.
+// INTERACTIVE_MS (?interactiveMs=), a coarser proxy is drawn instead while the camera
+// moves, and the full level again once it settles: blocks of m x m x m voxels merged here,
+// m the smallest power of two that brings the frame under that time, keeping about
+// MIN_PROXY_BOXES at least.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { getLabelVoxels, getTrajectory, getVoxels, listInstances } from './api.js';
