@@ -133,6 +133,9 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // A client that closes an HTTPS connection while we write must not kill the server:
+  // OpenSSL writes with write(2), which raises SIGPIPE (plain sockets use MSG_NOSIGNAL).
+  signal(SIGPIPE, SIG_IGN);
   // Block the stop signals in every thread (gRPC's included); main waits for them below.
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
