@@ -18,11 +18,7 @@ bash scripts/build.sh asan
 # a recognised scene, takes 400 s under ASan) and the browser test that trains and
 # recognises the same scene. Their code runs under ASan through the object service tests
 # and the unit tests of each part.
-# TlsProcessTest.MutualTls... passes in the release pass but can hang under ASan (it ran
-# 11 s there once and hung past 300 s in a fresh clone on 2026-11-26; not yet understood:
-# issue 13's note).
-heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances'
-heavy+='|TlsProcessTest[.]MutualTlsNeedsACertificateFromTheClientCa)'
+heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances)'
 (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --output-on-failure -j "$jobs" -LE fuzz -E "$heavy" --timeout 900)
