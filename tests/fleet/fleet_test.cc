@@ -21,6 +21,7 @@
 #include "tests/common/fleet_streamer.h"
 #include "tests/common/postgres_server.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/common/voxel_set.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
@@ -52,21 +53,6 @@ Eigen::Isometry3d View(uint64_t i) {
   const Eigen::Vector3d position(target.x() + radius * std::cos(angle),
                                  target.y() + radius * std::sin(angle), height);
   return LookingAlong(position, target - position);
-}
-
-using VoxelSet = std::set<std::tuple<double, double, double, float, uint32_t>>;
-
-VoxelSet Voxels(client::MapClient& client, const std::string& map) {
-  v1::GetVoxelsRequest request;
-  request.set_map(map);
-  request.set_min_voxel_weight(0);
-  auto voxels = client.GetAllVoxels(request);
-  EXPECT_TRUE(voxels.ok()) << map << ": " << voxels.status();
-  VoxelSet out;
-  for (const v1::Voxel& v : voxels.value_or(std::vector<v1::Voxel>{})) {
-    out.insert({v.center().x(), v.center().y(), v.center().z(), v.weight(), v.rgb()});
-  }
-  return out;
 }
 
 v1::CreateMapRequest CreateRequest(const std::string& id) {

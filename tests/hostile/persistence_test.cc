@@ -12,7 +12,7 @@
 #include "client/map_client.h"
 #include "storage/sqlite.h"
 #include "tests/common/skimapd_process.h"
-#include "tests/hostile/voxel_set.h"
+#include "tests/common/voxel_set.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {

@@ -8,7 +8,7 @@
 
 #include "client/map_client.h"
 #include "tests/common/skimapd_process.h"
-#include "tests/hostile/voxel_set.h"
+#include "tests/common/voxel_set.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {

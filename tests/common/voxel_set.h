@@ -1,7 +1,8 @@
 // The voxels of a map as a set of (centre x, y, z, weight, rgb), read through the gRPC
-// client, for tests that compare a map before and after a crash, restart or reload.
-#ifndef TESTS_HOSTILE_VOXEL_SET_H_
-#define TESTS_HOSTILE_VOXEL_SET_H_
+// client, for tests that compare a map before and after a crash, restart, reload or
+// move to another fleet node.
+#ifndef TESTS_COMMON_VOXEL_SET_H_
+#define TESTS_COMMON_VOXEL_SET_H_
 
 #include <gtest/gtest.h>
 
@@ -33,4 +34,4 @@ inline VoxelSet Voxels(client::MapClient& client, const std::string& map) {
 
 }  // namespace skimap::testing
 
-#endif  // TESTS_HOSTILE_VOXEL_SET_H_
+#endif  // TESTS_COMMON_VOXEL_SET_H_
