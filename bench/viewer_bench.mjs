@@ -26,10 +26,10 @@
 //                  (a 1-pixel readPixels), for --seconds
 // Headless chromium renders WebGL with SwiftShader (software GL on the CPU), not a GPU:
 // the frame rates are a floor, far below a desktop browser's.
-import { mkdirSync, mkdtempSync, rmSync } from 'node:fs';
+import { mkdirSync, mkdtempSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { call, launchChromium, parseArgs, startSkimapd, stopSkimapd } from '../web/test/harness.mjs';
+import { call, launchChromium, parseArgs, startSkimapd, tearDown } from '../web/test/harness.mjs';
 
 const args = parseArgs(process.argv.slice(2), ['skimapd', 'web_root']);
 const sizes = (args.sizes || '1000000,10000000').split(',').map(Number);
@@ -162,7 +162,5 @@ try {
       `${r.firstRender.toFixed(0)} | ${r.loaded.toFixed(0)} | ${r.frameMs.toFixed(0)} | ${proxy} | ${r.fps.toFixed(1)} |`);
   }
 } finally {
-  if (browser) await browser.close();
-  await stopSkimapd(server);
-  rmSync(dataDir, { recursive: true, force: true });
+  await tearDown(browser, server, dataDir);
 }

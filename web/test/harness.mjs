@@ -3,7 +3,7 @@
 // process, REST calls, a BOP scene's frames as v1.Frame JSON, and Debian's headless
 // chromium through playwright-core.
 import { spawn } from 'node:child_process';
-import { readFileSync } from 'node:fs';
+import { readFileSync, rmSync } from 'node:fs';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
 
@@ -108,6 +108,13 @@ export async function call(base, method, path, body, token) {
   const json = await response.json();
   if (!response.ok) throw new Error(`${method} ${path}: ${response.status} ${JSON.stringify(json)}`);
   return json;
+}
+
+// Ends a run: closes `browser` (if it started), stops `server` and removes `dataDir`.
+export async function tearDown(browser, server, dataDir) {
+  if (browser) await browser.close();
+  await stopSkimapd(server);
+  rmSync(dataDir, { recursive: true, force: true });
 }
 
 // Debian's chromium, headless, WebGL through SwiftShader (software GL).

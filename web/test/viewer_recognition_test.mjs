@@ -22,7 +22,7 @@ import { spawn } from 'node:child_process';
 import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, statSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { call, check, failures, launchChromium, parseArgs, sceneFrames, startSkimapd, stopSkimapd } from './harness.mjs';
+import { call, check, failures, launchChromium, parseArgs, sceneFrames, startSkimapd, tearDown } from './harness.mjs';
 
 const args = parseArgs(process.argv.slice(2), ['skimapd', 'skimap', 'sim', 'web_root', 'cache', 'out']);
 const stride = Number(args.stride || 5);
@@ -154,9 +154,7 @@ try {
   check(await page.evaluate(() => !window.skimapViewer.view3d.labels.visible), 'unchecked, the labels are hidden');
   check(errors.length === 0, `no page errors${errors.length ? `: ${errors.join('; ')}` : ''}`);
 } finally {
-  if (browser) await browser.close();
-  await stopSkimapd(server);
-  rmSync(dataDir, { recursive: true, force: true });
+  await tearDown(browser, server, dataDir);
 }
 console.log(`${elapsed()} in all`);
 console.log(failures() ? `${failures()} check(s) failed` : 'all checks passed');

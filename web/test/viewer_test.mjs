@@ -12,10 +12,10 @@
 //
 //   node web/test/viewer_test.mjs --skimapd=build/release/server/skimapd \
 //     --web_root=web/dist --scene=../shared/data/ycbv-0000/test/000000 --out=build/viewer
-import { mkdtempSync, mkdirSync, rmSync } from 'node:fs';
+import { mkdtempSync, mkdirSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { call, check, failures, launchChromium, parseArgs, sceneFrames, startSkimapd, stopSkimapd } from './harness.mjs';
+import { call, check, failures, launchChromium, parseArgs, sceneFrames, startSkimapd, tearDown } from './harness.mjs';
 
 const args = parseArgs(process.argv.slice(2), ['skimapd', 'web_root', 'scene', 'out']);
 mkdirSync(args.out, { recursive: true });
@@ -143,9 +143,7 @@ try {
   check(!(await moving.evaluate(() => window.skimapViewer.view3d.proxy.visible)), 'after the drag the full level shows again');
   check(errors.length === 0, `no page errors${errors.length ? `: ${errors.join('; ')}` : ''}`);
 } finally {
-  if (browser) await browser.close();
-  await stopSkimapd(server);
-  rmSync(dataDir, { recursive: true, force: true });
+  await tearDown(browser, server, dataDir);
 }
 console.log(failures() ? `${failures()} check(s) failed` : 'all checks passed');
 process.exit(failures() ? 1 : 0);
