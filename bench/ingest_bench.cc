@@ -37,6 +37,8 @@
 //
 // The variants run interleaved (frame by frame) so a loaded machine slows all of them
 // alike; ratios are ours / Open3D's.
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -80,6 +82,8 @@ ABSL_FLAG(std::string, resolutions, "0.01,0.02,0.05", "voxel edges, metres");
 ABSL_FLAG(int, worker_threads, 2, "the server's integration threads (skimapd --worker_threads)");
 ABSL_FLAG(int, laps, 3, "throughput run: laps over the 10 frames");
 ABSL_FLAG(int, window, 8, "throughput run: frames in flight");
+ABSL_FLAG(std::string, sections, "codecs,fresh,reobserved,running,stream",
+          "which parts to run (all by default)");
 
 namespace skimap::bench {
 namespace {
@@ -301,6 +305,87 @@ std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> NewVolume(doubl
 }
 #endif
 
+// 2c. Per frame into a running map, new space: the server's steady state. One map (one
+// Open3D volume per thread setting) takes a warm-up lap of the 10 frames, then reps x 10
+// more, one at a time (the next is sent after the previous one's ack), every frame moved
+// 10 m further along x so that all its voxels (volume units) are new. Ours: RVL + JPEG
+// through LiveMap::SubmitFrame (decode included), and the same frames already decoded
+// through a running MapState's stages (decode excluded); Open3D: Integrate of the decoded
+// frames into its running volume.
+void RunningMap(const std::vector<RealFrame>& frames, const server::MapConfig& config,
+                const server::LiveMap::Options& map_options, ThreadPool& pool,
+                server::WorkQueue& runner, int reps) {
+  const Codec rvl_jpeg{"RVL + JPEG", v1::DEPTH_ENCODING_RVL, v1::COLOR_ENCODING_JPEG};
+  const int laps = reps + 1;  // the first lap warms up and is not timed
+  const auto encoded = Encode(frames, rvl_jpeg, laps, 10.0);
+  std::vector<perception::RgbdFrame> decoded;
+  for (const auto& f : encoded) decoded.push_back(*server::DecodeFrame(*f));
+  const size_t warm = frames.size();
+  Samples ours, excluded, o3d_team, o3d_one;
+  {
+    server::LiveMap map("bench", map_options);
+    for (size_t k = 0; k < encoded.size(); ++k) {
+      std::promise<absl::StatusOr<v1::FrameAck>> done;
+      const Clock::time_point t0 = Clock::now();
+      map.SubmitFrame(encoded[k],
+                      [&](absl::StatusOr<v1::FrameAck> ack) { done.set_value(std::move(ack)); });
+      if (absl::StatusOr<v1::FrameAck> ack = done.get_future().get(); !ack.ok()) {
+        Die(ack.status().ToString());
+      }
+      if (k >= warm) ours.Add(Ms(Clock::now() - t0));
+    }
+  }
+  runner.Run([&] {
+    server::MapState state(config, &pool);
+    auto stages = server::MakeFrameStages(config, Grid(config.resolution), &pool);
+    for (size_t k = 0; k < decoded.size(); ++k) {
+      const Clock::time_point t0 = Clock::now();
+      for (auto& s : stages) s->Stage(decoded[k], server::FrameStage::kAdd);
+      for (auto& s : stages) s->Apply(&state);
+      if (k >= warm) excluded.Add(Ms(Clock::now() - t0));
+    }
+  });
+  double peer = 0;
+#ifdef SKIMAP_BENCH_OPEN3D
+  std::vector<Open3dFrame> moved;
+  for (size_t k = 0; k < encoded.size(); ++k) {
+    moved.push_back(ToOpen3d(frames[k % frames.size()], double(k) * 10, 5.0));
+  }
+  for (const int threads : {0, 1}) {
+    runner.Run([&] {
+      omp_set_num_threads(threads == 0 ? omp_get_num_procs() : threads);
+      auto volume = NewVolume(config.resolution);
+      for (size_t k = 0; k < moved.size(); ++k) {
+        const Clock::time_point t0 = Clock::now();
+        volume->Integrate(*moved[k].rgbd, moved[k].intrinsic, moved[k].extrinsic);
+        if (k >= warm) (threads == 0 ? o3d_team : o3d_one).Add(Ms(Clock::now() - t0));
+      }
+    });
+  }
+  peer = std::min(o3d_team.Median(), o3d_one.Median());
+#endif
+  auto ratio = [&](double v) {
+    return peer > 0 ? absl::StrFormat("%.2f", v / peer) : std::string("-");
+  };
+  std::printf(
+      "\n### Per frame into a running map, new space, %.0f cm (median / p90 ms over %d "
+      "frames after a warm-up lap)\n\n| variant | ms (median) | p90 | / Open3D |\n"
+      "|---|---|---|---|\n",
+      config.resolution * 100, reps * int(frames.size()));
+  std::printf("| ours, RVL + JPEG, decode included | %.2f | %.2f | %s |\n", ours.Median(),
+              ours.Quantile(0.9), ratio(ours.Median()).c_str());
+  std::printf("| ours, decode excluded | %.2f | %.2f | %s |\n", excluded.Median(),
+              excluded.Quantile(0.9), ratio(excluded.Median()).c_str());
+#ifdef SKIMAP_BENCH_OPEN3D
+  std::printf("| Open3D, %d OpenMP threads (decoded images) | %.2f | %.2f | %s |\n",
+              omp_get_num_procs(), o3d_team.Median(), o3d_team.Quantile(0.9),
+              ratio(o3d_team.Median()).c_str());
+  std::printf("| Open3D, 1 thread (decoded images) | %.2f | %.2f | %s |\n", o3d_one.Median(),
+              o3d_one.Quantile(0.9), ratio(o3d_one.Median()).c_str());
+#endif
+  std::fflush(stdout);
+}
+
 void Run() {
   const std::vector<RealFrame> frames = LoadFrames(absl::GetFlag(FLAGS_ycbv));
   const int reps = absl::GetFlag(FLAGS_reps);
@@ -312,7 +397,11 @@ void Run() {
   server::WorkQueue runner({.capacity = 4});
   std::printf("ingest_bench: %zu ycbv frames %dx%d, %d reps, worker_threads %d\n", frames.size(),
               frames[0].depth.width, frames[0].depth.height, reps, pool.workers());
-  CodecCosts(frames, reps);
+  const std::vector<std::string> sections = absl::StrSplit(absl::GetFlag(FLAGS_sections), ',');
+  auto want = [&](const char* name) {
+    return std::find(sections.begin(), sections.end(), name) != sections.end();
+  };
+  if (want("codecs")) CodecCosts(frames, reps);
 
   const std::vector<Codec> codecs = {
       {"raw + raw RGB", v1::DEPTH_ENCODING_RAW_U16, v1::COLOR_ENCODING_RAW_RGB8},
@@ -340,98 +429,100 @@ void Run() {
     // The same map with frames decoded on its worker, one image after the other (the
     // ingestion path before issue 15's decode-ahead).
     const server::LiveMap::Options serial_options{.config = config, .pool = &pool};
-    std::vector<Samples> ours(codecs.size()), decode(codecs.size());
-    Samples stage, apply, excluded, open3d, open3d_one;
 #ifdef SKIMAP_BENCH_OPEN3D
     std::vector<Open3dFrame> o3d_frames;
     for (const RealFrame& f : frames) o3d_frames.push_back(ToOpen3d(f, 0, 5.0));
 #endif
-    for (int r = 0; r < reps; ++r) {
-      for (size_t i = 0; i < frames.size(); ++i) {
-        for (size_t c = 0; c < codecs.size(); ++c) {
-          {
+    if (want("fresh")) {
+      std::vector<Samples> ours(codecs.size()), decode(codecs.size());
+      Samples stage, apply, excluded, open3d, open3d_one;
+      for (int r = 0; r < reps; ++r) {
+        for (size_t i = 0; i < frames.size(); ++i) {
+          for (size_t c = 0; c < codecs.size(); ++c) {
+            {
+              const Clock::time_point t0 = Clock::now();
+              absl::StatusOr<perception::RgbdFrame> d = server::DecodeFrame(*single[c][i]);
+              decode[c].Add(Ms(Clock::now() - t0));
+              if (!d.ok()) Die(d.status().ToString());
+            }
+            server::LiveMap map("bench", map_options);
+            std::promise<absl::StatusOr<v1::FrameAck>> done;
             const Clock::time_point t0 = Clock::now();
-            absl::StatusOr<perception::RgbdFrame> d = server::DecodeFrame(*single[c][i]);
-            decode[c].Add(Ms(Clock::now() - t0));
-            if (!d.ok()) Die(d.status().ToString());
+            map.SubmitFrame(single[c][i], [&](absl::StatusOr<v1::FrameAck> ack) {
+              done.set_value(std::move(ack));
+            });
+            absl::StatusOr<v1::FrameAck> ack = done.get_future().get();
+            ours[c].Add(Ms(Clock::now() - t0));
+            if (!ack.ok()) Die(ack.status().ToString());
           }
-          server::LiveMap map("bench", map_options);
-          std::promise<absl::StatusOr<v1::FrameAck>> done;
-          const Clock::time_point t0 = Clock::now();
-          map.SubmitFrame(single[c][i], [&](absl::StatusOr<v1::FrameAck> ack) {
-            done.set_value(std::move(ack));
-          });
-          absl::StatusOr<v1::FrameAck> ack = done.get_future().get();
-          ours[c].Add(Ms(Clock::now() - t0));
-          if (!ack.ok()) Die(ack.status().ToString());
-        }
-        // On a thread of its own, as a map's worker (and Open3D likewise, below).
-        runner.Run([&] {
-          server::MapState state(config, &pool);
-          auto stages = server::MakeFrameStages(config, Grid(config.resolution), &pool);
-          const Clock::time_point t0 = Clock::now();
-          size_t points = 0, voxels = 0;
-          for (auto& s : stages) points += s->Stage(decoded[i], server::FrameStage::kAdd).points;
-          const Clock::time_point t1 = Clock::now();
-          for (auto& s : stages) voxels += s->Apply(&state).voxels_touched;
-          const Clock::time_point t2 = Clock::now();
-          if (points == 0 || voxels == 0) Die("a frame integrated nothing");
-          if (r == 0 && i == 0) {
-            std::fprintf(stderr, "frame 0 at %.0f cm: %zu points, %zu voxels\n", res * 100, points,
-                         voxels);
-          }
-          stage.Add(Ms(t1 - t0));
-          apply.Add(Ms(t2 - t1));
-          excluded.Add(Ms(t2 - t0));
-        });
-#ifdef SKIMAP_BENCH_OPEN3D
-        // Open3D's OpenMP team (as many threads as cores), and one thread: on a machine
-        // loaded by other work a team's barriers can cost more than its parallelism gains.
-        for (const int threads : {0, 1}) {
+          // On a thread of its own, as a map's worker (and Open3D likewise, below).
           runner.Run([&] {
-            omp_set_num_threads(threads == 0 ? omp_get_num_procs() : threads);
-            auto volume = NewVolume(res);
+            server::MapState state(config, &pool);
+            auto stages = server::MakeFrameStages(config, Grid(config.resolution), &pool);
             const Clock::time_point t0 = Clock::now();
-            volume->Integrate(*o3d_frames[i].rgbd, o3d_frames[i].intrinsic,
-                              o3d_frames[i].extrinsic);
-            (threads == 0 ? open3d : open3d_one).Add(Ms(Clock::now() - t0));
+            size_t points = 0, voxels = 0;
+            for (auto& s : stages) points += s->Stage(decoded[i], server::FrameStage::kAdd).points;
+            const Clock::time_point t1 = Clock::now();
+            for (auto& s : stages) voxels += s->Apply(&state).voxels_touched;
+            const Clock::time_point t2 = Clock::now();
+            if (points == 0 || voxels == 0) Die("a frame integrated nothing");
+            if (r == 0 && i == 0) {
+              std::fprintf(stderr, "frame 0 at %.0f cm: %zu points, %zu voxels\n", res * 100,
+                           points, voxels);
+            }
+            stage.Add(Ms(t1 - t0));
+            apply.Add(Ms(t2 - t1));
+            excluded.Add(Ms(t2 - t0));
           });
-        }
+#ifdef SKIMAP_BENCH_OPEN3D
+          // Open3D's OpenMP team (as many threads as cores), and one thread: on a machine
+          // loaded by other work a team's barriers can cost more than its parallelism gains.
+          for (const int threads : {0, 1}) {
+            runner.Run([&] {
+              omp_set_num_threads(threads == 0 ? omp_get_num_procs() : threads);
+              auto volume = NewVolume(res);
+              const Clock::time_point t0 = Clock::now();
+              volume->Integrate(*o3d_frames[i].rgbd, o3d_frames[i].intrinsic,
+                                o3d_frames[i].extrinsic);
+              (threads == 0 ? open3d : open3d_one).Add(Ms(Clock::now() - t0));
+            });
+          }
 #endif
+        }
       }
-    }
-    // The peer's figure: the faster of its two thread settings.
-    const double o3d_median = std::min(open3d.Median(), open3d_one.Median());
-    auto ratio = [&](double v) {
-      return o3d_median > 0 ? absl::StrFormat("%.2f", v / o3d_median) : std::string("-");
-    };
-    std::printf("\n### Per frame, new space, %.0f cm (median / p90 ms over %d samples)\n\n",
-                res * 100, reps * int(frames.size()));
-    std::printf("| variant | server ms (median) | p90 | of which decode+validate | / Open3D |\n");
-    std::printf("|---|---|---|---|---|\n");
-    for (size_t c = 0; c < codecs.size(); ++c) {
-      const double m = ours[c].Median();
-      std::printf("| ours, %s, decode included | %.2f | %.2f | %.2f | %s |\n", codecs[c].name, m,
-                  ours[c].Quantile(0.9), decode[c].Median(), ratio(m).c_str());
-    }
-    const double ex = excluded.Median();
-    std::printf("| ours, decode excluded (Stage %.2f + Apply %.2f) | %.2f | %.2f | - | %s |\n",
-                stage.Median(), apply.Median(), ex, excluded.Quantile(0.9), ratio(ex).c_str());
-    if (o3d_median > 0) {
-      std::printf(
-          "| Open3D ScalableTSDFVolume::Integrate (decoded images), %d OpenMP threads | "
-          "%.2f | %.2f | - | %s |\n",
-          omp_get_num_procs(), open3d.Median(), open3d.Quantile(0.9),
-          ratio(open3d.Median()).c_str());
-      std::printf(
-          "| Open3D ScalableTSDFVolume::Integrate (decoded images), 1 thread | %.2f | "
-          "%.2f | - | %s |\n",
-          open3d_one.Median(), open3d_one.Quantile(0.9), ratio(open3d_one.Median()).c_str());
+      // The peer's figure: the faster of its two thread settings.
+      const double o3d_median = std::min(open3d.Median(), open3d_one.Median());
+      auto ratio = [&](double v) {
+        return o3d_median > 0 ? absl::StrFormat("%.2f", v / o3d_median) : std::string("-");
+      };
+      std::printf("\n### Per frame, new space, %.0f cm (median / p90 ms over %d samples)\n\n",
+                  res * 100, reps * int(frames.size()));
+      std::printf("| variant | server ms (median) | p90 | of which decode+validate | / Open3D |\n");
+      std::printf("|---|---|---|---|---|\n");
+      for (size_t c = 0; c < codecs.size(); ++c) {
+        const double m = ours[c].Median();
+        std::printf("| ours, %s, decode included | %.2f | %.2f | %.2f | %s |\n", codecs[c].name, m,
+                    ours[c].Quantile(0.9), decode[c].Median(), ratio(m).c_str());
+      }
+      const double ex = excluded.Median();
+      std::printf("| ours, decode excluded (Stage %.2f + Apply %.2f) | %.2f | %.2f | - | %s |\n",
+                  stage.Median(), apply.Median(), ex, excluded.Quantile(0.9), ratio(ex).c_str());
+      if (o3d_median > 0) {
+        std::printf(
+            "| Open3D ScalableTSDFVolume::Integrate (decoded images), %d OpenMP threads | "
+            "%.2f | %.2f | - | %s |\n",
+            omp_get_num_procs(), open3d.Median(), open3d.Quantile(0.9),
+            ratio(open3d.Median()).c_str());
+        std::printf(
+            "| Open3D ScalableTSDFVolume::Integrate (decoded images), 1 thread | %.2f | "
+            "%.2f | - | %s |\n",
+            open3d_one.Median(), open3d_one.Quantile(0.9), ratio(open3d_one.Median()).c_str());
+      }
     }
 
     // 2b. Re-observed space: the same frames again into a map (a volume) that holds them
     // already, RVL + JPEG for ours (the CLI's default), team and one thread for Open3D.
-    {
+    if (want("reobserved")) {
       Samples warm_ours, warm_o3d, warm_o3d_one;
       server::LiveMap map("bench", map_options);
       Stream(map, single[5], window);
@@ -491,6 +582,9 @@ void Run() {
       }
     }
 
+    if (want("running")) RunningMap(frames, config, map_options, pool, runner, reps);
+    if (!want("stream")) continue;
+
     // 3. Throughput: a stream of new space.
     std::printf("\n### Stream, new space, %.0f cm: %d frames, %zu in flight, in-process\n\n",
                 res * 100, laps * int(frames.size()), window);
@@ -537,6 +631,16 @@ void Run() {
 }  // namespace skimap::bench
 
 int main(int argc, char** argv) {
+#ifdef SKIMAP_BENCH_OPEN3D
+  // libgomp reads its wait policy when it loads: by default Open3D's idle OpenMP threads
+  // spin after each Integrate and take a core from whatever is timed next (ours or its own
+  // one-thread run). Passive waiting, set by re-running this program, keeps the samples
+  // apart; the one-thread runs have no team to wake.
+  if (std::getenv("OMP_WAIT_POLICY") == nullptr) {
+    setenv("OMP_WAIT_POLICY", "PASSIVE", 1);
+    execv("/proc/self/exe", argv);
+  }
+#endif
   absl::ParseCommandLine(argc, argv);
   skimap::bench::Run();
   return 0;
