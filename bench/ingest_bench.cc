@@ -58,7 +58,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
-#include "client/dataset_frames.h"
+#include "bench/ycbv_frames.h"
 #include "perception/image_codec.h"
 #include "server/maps/frame_decode.h"
 #include "server/maps/frame_stages.h"
@@ -95,54 +95,6 @@ double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(
 [[noreturn]] void Die(const std::string& what) {
   std::fprintf(stderr, "ingest_bench: %s\n", what.c_str());
   std::exit(1);
-}
-
-// One real frame, decoded, and its API form (images filled in per variant).
-struct RealFrame {
-  v1::Frame api;  // pose, intrinsics, depth_scale; images set per variant
-  perception::DepthImage depth;
-  perception::ColorImage color;
-};
-
-std::vector<RealFrame> LoadFrames(const std::string& root) {
-  absl::StatusOr<std::vector<dataset::Frame>> frames = client::LoadDatasetFrames(root);
-  if (!frames.ok()) Die(frames.status().ToString());
-  std::vector<RealFrame> out;
-  for (size_t i = 0; i < frames->size(); ++i) {
-    absl::StatusOr<v1::Frame> api = client::ToApiFrame((*frames)[i], "maps/bench", i + 1);
-    if (!api.ok()) Die(api.status().ToString());
-    absl::StatusOr<perception::RgbdFrame> decoded = server::DecodeFrame(*api);
-    if (!decoded.ok() || !decoded->color) Die("ycbv frame does not decode with colour");
-    RealFrame f{*std::move(api), std::move(decoded->depth), *std::move(decoded->color)};
-    f.api.clear_depth();
-    f.api.clear_color();
-    out.push_back(std::move(f));
-  }
-  return out;
-}
-
-struct Codec {
-  const char* name;
-  v1::DepthEncoding depth;
-  v1::ColorEncoding color;
-};
-
-perception::DepthCodec ToDepthCodec(v1::DepthEncoding e) {
-  switch (e) {
-    case v1::DEPTH_ENCODING_PNG16:
-      return perception::DepthCodec::kPng16;
-    case v1::DEPTH_ENCODING_ZSTD:
-      return perception::DepthCodec::kZstd;
-    case v1::DEPTH_ENCODING_RVL:
-      return perception::DepthCodec::kRvl;
-    default:
-      return perception::DepthCodec::kRawU16;
-  }
-}
-perception::ColorCodec ToColorCodec(v1::ColorEncoding e) {
-  return e == v1::COLOR_ENCODING_PNG    ? perception::ColorCodec::kPng
-         : e == v1::COLOR_ENCODING_JPEG ? perception::ColorCodec::kJpeg
-                                        : perception::ColorCodec::kRawRgb8;
 }
 
 struct Samples {
@@ -214,26 +166,12 @@ void CodecCosts(const std::vector<RealFrame>& frames, int reps) {
   }
 }
 
-// The frames of one codec combination, encoded as a client sends them. `shift_m`: frame k
-// (0-based, over `laps` laps) is moved k * shift_m along world x.
+// The frames of one codec combination, `laps` x the 10 frames, frame k moved k * shift_m
+// along world x.
 std::vector<std::shared_ptr<const v1::Frame>> Encode(const std::vector<RealFrame>& frames,
                                                      const Codec& codec, int laps, double shift_m) {
-  std::vector<std::shared_ptr<const v1::Frame>> out;
-  for (int lap = 0; lap < laps; ++lap) {
-    for (const RealFrame& f : frames) {
-      auto api = std::make_shared<v1::Frame>(f.api);
-      const size_t k = out.size();
-      api->set_sequence(k + 1);
-      api->mutable_pose()->mutable_translation()->set_x(f.api.pose().translation().x() +
-                                                        double(k) * shift_m);
-      api->set_depth_encoding(codec.depth);
-      api->set_depth(*perception::EncodeDepth(ToDepthCodec(codec.depth), f.depth));
-      api->set_color_encoding(codec.color);
-      api->set_color(*perception::EncodeColor(ToColorCodec(codec.color), f.color));
-      out.push_back(std::move(api));
-    }
-  }
-  return out;
+  return EncodeFrames(frames, codec, size_t(laps) * frames.size(),
+                      [&](size_t k) { return Shift{.x = double(k) * shift_m}; });
 }
 
 server::MapConfig Config(double resolution) {
@@ -315,9 +253,8 @@ std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> NewVolume(doubl
 void RunningMap(const std::vector<RealFrame>& frames, const server::MapConfig& config,
                 const server::LiveMap::Options& map_options, ThreadPool& pool,
                 server::WorkQueue& runner, int reps) {
-  const Codec rvl_jpeg{"RVL + JPEG", v1::DEPTH_ENCODING_RVL, v1::COLOR_ENCODING_JPEG};
   const int laps = reps + 1;  // the first lap warms up and is not timed
-  const auto encoded = Encode(frames, rvl_jpeg, laps, 10.0);
+  const auto encoded = Encode(frames, kRvlJpeg, laps, 10.0);
   std::vector<perception::RgbdFrame> decoded;
   for (const auto& f : encoded) decoded.push_back(*server::DecodeFrame(*f));
   const size_t warm = frames.size();
@@ -387,7 +324,7 @@ void RunningMap(const std::vector<RealFrame>& frames, const server::MapConfig& c
 }
 
 void Run() {
-  const std::vector<RealFrame> frames = LoadFrames(absl::GetFlag(FLAGS_ycbv));
+  const std::vector<RealFrame> frames = LoadYcbvFrames(absl::GetFlag(FLAGS_ycbv));
   const int reps = absl::GetFlag(FLAGS_reps);
   const int laps = absl::GetFlag(FLAGS_laps);
   const size_t window = size_t(absl::GetFlag(FLAGS_window));
@@ -583,6 +520,28 @@ void Run() {
     }
 
     if (want("running")) RunningMap(frames, config, map_options, pool, runner, reps);
+    if (want("profile")) {
+      // Not in the default set: the decode-excluded stages alone, reps x 100 frames of new
+      // space into one running map, for a profiler (perf record ... --sections=profile).
+      std::vector<perception::RgbdFrame> moved;
+      for (int k = 0; k < 100; ++k) {
+        moved.push_back(decoded[size_t(k) % decoded.size()]);
+        moved.back().pose.translation.x() += 10.0 * k;
+      }
+      runner.Run([&] {
+        server::MapState state(config, &pool);
+        auto stages = server::MakeFrameStages(config, Grid(config.resolution), &pool);
+        const Clock::time_point t0 = Clock::now();
+        for (int r = 0; r < reps; ++r) {
+          for (perception::RgbdFrame& f : moved) {
+            f.pose.translation.z() += 10.0;
+            for (auto& st : stages) st->Stage(f, server::FrameStage::kAdd);
+            for (auto& st : stages) st->Apply(&state);
+          }
+        }
+        std::printf("profile: %.3f ms per frame\n", Ms(Clock::now() - t0) / (reps * 100.0));
+      });
+    }
     if (!want("stream")) continue;
 
     // 3. Throughput: a stream of new space.

@@ -45,28 +45,26 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   const uint8_t* rgb = frame.color ? frame.color->rgb.data() : nullptr;
   const double scale = frame.depth_scale;
   const double min_depth = options.min_depth, max_depth = options.max_depth;
-  size_t in_range = 0;
-  for (int r = 0; r < rows; ++r) {
-    const uint16_t* row = depth + size_t(r) * stride * cam.width;
-    for (int c = 0; c < cols; ++c) {
-      const uint16_t d = row[c * stride];
-      const double z = d * scale;
-      const bool valid = d != 0, inside = z >= min_depth && z <= max_depth;
-      in_range += valid && inside;
-      stats.out_of_range += valid && !inside;
-    }
-  }
   const double* cx = col_x.data();
   const double* cy = col_y.data();
   const double* cz = col_z.data();
   const Eigen::Vector3d* bases = row_base.data();
+  // Per row: pixels with depth in range, and with valid depth outside it (each row is
+  // filled by one thread; summed below).
+  thread_local std::vector<uint32_t> row_in, row_out;
+  row_in.assign(rows, 0), row_out.assign(rows, 0);
+  // (Pointers: the pool's threads must write this thread's arrays, not their own.)
+  uint32_t* const in_rows = row_in.data();
+  uint32_t* const out_rows = row_out.data();
   // One row: z * (row_base + col_term) + t per pixel, the same arithmetic per point as a
-  // per-pixel Eigen expression (so the same keys), branch-free over the row. Everything the
-  // loop reads is a local or a restrict pointer, so GCC vectorises it (SSE2 here).
+  // per-pixel Eigen expression, then Grid::AxisToKeyBranchFree (so the same keys as
+  // Grid::ToKey), branch-free over the row. Everything the loop reads is a local or a
+  // restrict pointer, so GCC vectorises it.
   const double tx = t.x(), ty = t.y(), tz = t.z();
-  auto fill_row = [&, tx, ty, tz, scale, min_depth, max_depth](size_t r, Point3* __restrict points,
-                                                               RGBWeightedVoxel* obs,
-                                                               uint8_t* __restrict use) {
+  const double ox = grid.origin().x, oy = grid.origin().y, oz = grid.origin().z;
+  using Batch = VoxelBatch<RGBWeightedVoxel>;
+  auto fill_row = [&, tx, ty, tz, ox, oy, oz, scale, min_depth, max_depth, in_rows, out_rows](
+                      size_t r, Batch::KeyRow keys, RGBWeightedVoxel* obs) {
     const size_t first = r * stride * cam.width;
     const uint16_t* __restrict row = depth + first;
     const double* __restrict xs = cx;
@@ -75,14 +73,20 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
     const double bx = bases[r].x(), by = bases[r].y(), bz = bases[r].z();
     const int n = cols;
     const size_t step = size_t(stride);
+    uint32_t in_range = 0, out_of_range = 0;
     for (int c = 0; c < n; ++c) {
       const uint16_t d = row[size_t(c) * step];
       const double z = d * scale;
-      use[c] = (d != 0) & (z >= min_depth) & (z <= max_depth);
-      points[c].x = z * (bx + xs[c]) + tx;
-      points[c].y = z * (by + ys[c]) + ty;
-      points[c].z = z * (bz + zs[c]) + tz;
+      const bool valid = d != 0, inside = (z >= min_depth) & (z <= max_depth);
+      in_range += valid & inside;
+      out_of_range += valid & !inside;
+      const bool has_key = grid.AxisToKeyBranchFree(z * (bx + xs[c]) + tx, ox, &keys.x[c]) &
+                           grid.AxisToKeyBranchFree(z * (by + ys[c]) + ty, oy, &keys.y[c]) &
+                           grid.AxisToKeyBranchFree(z * (bz + zs[c]) + tz, oz, &keys.z[c]);
+      keys.state[c] =
+          static_cast<uint8_t>((valid & inside) * (has_key ? Batch::kUse : Batch::kNoKey));
     }
+    in_rows[r] = in_range, out_rows[r] = out_of_range;
     if (rgb != nullptr) {
       const uint8_t* px = rgb + 3 * first;
       for (int c = 0; c < cols; ++c) {
@@ -93,7 +97,9 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
       for (int c = 0; c < cols; ++c) obs[c] = RGBWeightedVoxel(128, 128, 128, 1.0f);
     }
   };
-  batch->AddRows(grid, size_t(rows), size_t(cols), fill_row, pool);
+  batch->AddRows(size_t(rows), size_t(cols), fill_row, pool);
+  size_t in_range = 0;
+  for (int r = 0; r < rows; ++r) in_range += row_in[r], stats.out_of_range += row_out[r];
   stats.no_key = batch->rejected();
   stats.points = in_range - stats.no_key;
   batch->Finalize(pool);

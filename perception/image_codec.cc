@@ -8,6 +8,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <turbojpeg.h>
+
 #include "absl/strings/str_cat.h"
 #include "perception/image_header.h"
 #include "perception/rvl_codec.h"
@@ -57,6 +59,37 @@ cv::Mat Decode(std::string_view bytes, int flags) {
   } catch (const cv::Exception&) {
     return cv::Mat();
   }
+}
+
+// A TurboJPEG decompressor per thread (created on first use, destroyed with the thread):
+// frames decode on several threads at once and a handle is not thread-safe.
+tjhandle JpegDecompressor() {
+  struct Handle {
+    tjhandle h = tjInitDecompress();
+    ~Handle() {
+      if (h != nullptr) tjDestroy(h);
+    }
+  };
+  thread_local Handle handle;
+  return handle.h;
+}
+
+// JPEG (header already checked: width x height, 8-bit, 1 or 3 components) straight into
+// out->rgb as RGB with libjpeg-turbo: no BGR intermediate, no copy. A warning (e.g. bytes
+// after a complete image) still leaves every pixel decoded, as OpenCV's decoder did; a
+// fatal error refuses the image.
+absl::Status DecodeJpeg(std::string_view bytes, int width, int height, ColorImage* out) {
+  tjhandle h = JpegDecompressor();
+  if (h == nullptr) return absl::InternalError("color: cannot create a JPEG decoder");
+  out->rgb.resize(size_t(width) * size_t(height) * 3);
+  const int rc = tjDecompress2(h, reinterpret_cast<const unsigned char*>(bytes.data()),
+                               static_cast<unsigned long>(bytes.size()), out->rgb.data(), width,
+                               /*pitch=*/0, height, TJPF_RGB, /*flags=*/0);
+  if (rc != 0 && tjGetErrorCode(h) != TJERR_WARNING) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("color: JPEG does not decode: ", tjGetErrorStr2(h)));
+  }
+  return absl::OkStatus();
 }
 
 void LoadLittleEndian(std::string_view bytes, std::vector<uint16_t>* out) {
@@ -177,10 +210,10 @@ absl::Status DecodeColorInto(ColorCodec codec, std::string_view bytes, int width
     return absl::InvalidArgumentError(
         absl::StrCat("color: JPEG has ", h->channels, " components, expected 1 or 3"));
   }
+  if (!png) return DecodeJpeg(bytes, width, height, out);
   cv::Mat m = Decode(bytes, cv::IMREAD_COLOR);  // always 8-bit BGR
   if (m.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("color: ", codec == ColorCodec::kPng ? "PNG" : "JPEG", " does not decode"));
+    return absl::InvalidArgumentError("color: PNG does not decode");
   }
   if (m.cols != width || m.rows != height) {
     return SizeMismatch("color", m.cols, m.rows, width, height);

@@ -87,15 +87,24 @@ class VoxelBatch {
   template <class Fn>
   void AddPoints(const Grid& grid, size_t count, Fn&& get, ThreadPool* pool = nullptr);
 
-  // Adds rows x cols observations (an image) row by row: fill_row(r, Point3* points,
-  // V* data, uint8_t* use) fills row r's `cols` points, with use[c] = 0 for a point to skip.
-  // The same batch as AddPoints over r * cols + c, without a call or a division per point:
-  // fill_row's loop over a row is where the compiler vectorises. With a pool, rows are
-  // split over its threads and fill_row is called concurrently for different rows. Scratch
-  // rows are kept in the batch (no allocation once they have grown to `cols`).
+  // One row of keyed observations for AddRows: for column c, its key (x[c], y[c], z[c])
+  // and state[c]: kUse, kSkip (no observation, e.g. a pixel without depth) or kNoKey (a
+  // point outside the key range: skipped and counted in rejected()).
+  enum RowState : uint8_t { kSkip = 0, kUse = 1, kNoKey = 2 };
+  struct KeyRow {
+    int32_t* __restrict x;
+    int32_t* __restrict y;
+    int32_t* __restrict z;
+    uint8_t* __restrict state;
+  };
+  // Adds rows x cols observations (an image) row by row: fill_row(r, KeyRow row, V* data)
+  // fills row r's `cols` keys, states and data (Grid::AxisToKeyBranchFree computes keys in
+  // a loop the compiler vectorises: the row's arrays are separate and restrict). Equal
+  // consecutive keys merge as in AddPoints. With a pool, rows are split over its threads
+  // and fill_row is called concurrently for different rows. Scratch rows are kept in the
+  // batch (no allocation once they have grown to `cols`).
   template <class RowFn>
-  void AddRows(const Grid& grid, size_t rows, size_t cols, RowFn&& fill_row,
-               ThreadPool* pool = nullptr);
+  void AddRows(size_t rows, size_t cols, RowFn&& fill_row, ThreadPool* pool = nullptr);
 
   // REQUIRES: every component of `key` in [kMinKey, kMaxKey].
   void AddKey(const VoxelKey& key, const V& data) {
@@ -180,14 +189,15 @@ class VoxelBatch {
                          size_t* rejected);
   // One thread's row of AddRows.
   struct RowScratch {
-    std::vector<Point3> points;
+    std::vector<int32_t> x, y, z;
+    std::vector<uint8_t> state;
     std::vector<V> data;
-    std::vector<uint8_t> use;
   };
-  // AddRange for rows [begin, end) of AddRows.
+  // AddRows for rows [begin, end): the run-merged observations to out[0..); returns how
+  // many.
   template <class RowFn>
-  static size_t AddRowRange(const Grid& grid, size_t begin, size_t end, size_t cols,
-                            RowFn& fill_row, RowScratch& scratch, Item* out, size_t* rejected);
+  static size_t AddRowRange(size_t begin, size_t end, size_t cols, RowFn& fill_row,
+                            RowScratch& scratch, Item* out, size_t* rejected);
   // Merges the items that `sorted` (sort keys) orders into out[0..); returns how many.
   static size_t MergeSorted(const Item* items, const uint64_t* sorted, size_t count,
                             uint64_t index_mask, Item* out);
@@ -252,28 +262,28 @@ void VoxelBatch<V>::AddPoints(const Grid& grid, size_t count, Fn&& get, ThreadPo
 
 template <Voxel V>
 template <class RowFn>
-size_t VoxelBatch<V>::AddRowRange(const Grid& grid, size_t begin, size_t end, size_t cols,
-                                  RowFn& fill_row, RowScratch& s, Item* out, size_t* rejected) {
+size_t VoxelBatch<V>::AddRowRange(size_t begin, size_t end, size_t cols, RowFn& fill_row,
+                                  RowScratch& s, Item* out, size_t* rejected) {
   RunWriter runs{out};
+  size_t no_key = 0;
   for (size_t r = begin; r < end; ++r) {
-    fill_row(r, s.points.data(), s.data.data(), s.use.data());
+    fill_row(r, KeyRow{s.x.data(), s.y.data(), s.z.data(), s.state.data()}, s.data.data());
     for (size_t c = 0; c < cols; ++c) {
-      if (!s.use[c]) continue;
-      VoxelKey k;
-      if (!grid.ToKey(s.points[c], &k)) {
-        ++*rejected;
+      const uint8_t state = s.state[c];
+      if (state != kUse) {
+        no_key += state == kNoKey;
         continue;
       }
-      runs.Add(k, s.data[c]);
+      runs.Add(VoxelKey{s.x[c], s.y[c], s.z[c]}, s.data[c]);
     }
   }
+  *rejected += no_key;
   return runs.Finish();
 }
 
 template <Voxel V>
 template <class RowFn>
-void VoxelBatch<V>::AddRows(const Grid& grid, size_t rows, size_t cols, RowFn&& fill_row,
-                            ThreadPool* pool) {
+void VoxelBatch<V>::AddRows(size_t rows, size_t cols, RowFn&& fill_row, ThreadPool* pool) {
   const size_t count = rows * cols;
   Reserve(n_ + count);
   Item* out = storage_.data() + n_;
@@ -282,15 +292,17 @@ void VoxelBatch<V>::AddRows(const Grid& grid, size_t rows, size_t cols, RowFn&& 
   if (row_scratch_.size() < pieces) row_scratch_.resize(pieces);
   for (size_t p = 0; p < pieces; ++p) {
     RowScratch& s = row_scratch_[p];
-    if (s.points.size() < cols) {
-      s.points.resize(cols);
+    if (s.state.size() < cols) {
+      s.x.resize(cols);
+      s.y.resize(cols);
+      s.z.resize(cols);
+      s.state.resize(cols);
       s.data.resize(cols);
-      s.use.resize(cols);
     }
   }
   size_t added = 0;
   if (!parallel) {
-    added = AddRowRange(grid, 0, rows, cols, fill_row, row_scratch_[0], out, &rejected_);
+    added = AddRowRange(0, rows, cols, fill_row, row_scratch_[0], out, &rejected_);
   } else {
     // Piece p writes its runs at out + first row * cols (room for every point), then the
     // pieces are moved together, as in AddPoints.
@@ -299,8 +311,8 @@ void VoxelBatch<V>::AddRows(const Grid& grid, size_t rows, size_t cols, RowFn&& 
     pool->ParallelFor(used, [&](size_t first, size_t last) {
       for (size_t p = first; p < last; ++p) {
         const size_t begin = p * rows / used, end = (p + 1) * rows / used;
-        written[p] = AddRowRange(grid, begin, end, cols, fill_row, row_scratch_[p],
-                                 out + begin * cols, &rejected[p]);
+        written[p] = AddRowRange(begin, end, cols, fill_row, row_scratch_[p], out + begin * cols,
+                                 &rejected[p]);
       }
     });
     for (size_t p = 0; p < used; ++p) {

@@ -1,0 +1,86 @@
+#include "bench/ycbv_frames.h"
+
+#include <cstdio>
+#include <cstdlib>
+
+#include "client/dataset_frames.h"
+#include "server/maps/frame_decode.h"
+
+namespace skimap::bench {
+namespace {
+
+[[noreturn]] void ExitWith(const std::string& what) {
+  std::fprintf(stderr, "ycbv frames: %s\n", what.c_str());
+  std::exit(1);
+}
+
+}  // namespace
+
+std::vector<RealFrame> LoadYcbvFrames(const std::string& root) {
+  absl::StatusOr<std::vector<dataset::Frame>> frames = client::LoadDatasetFrames(root);
+  if (!frames.ok()) ExitWith(frames.status().ToString());
+  std::vector<RealFrame> out;
+  for (size_t i = 0; i < frames->size(); ++i) {
+    absl::StatusOr<v1::Frame> api = client::ToApiFrame((*frames)[i], "maps/bench", i + 1);
+    if (!api.ok()) ExitWith(api.status().ToString());
+    absl::StatusOr<perception::RgbdFrame> decoded = server::DecodeFrame(*api);
+    if (!decoded.ok() || !decoded->color) ExitWith("ycbv frame does not decode with colour");
+    RealFrame f{*std::move(api), std::move(decoded->depth), *std::move(decoded->color)};
+    f.api.clear_depth();
+    f.api.clear_color();
+    out.push_back(std::move(f));
+  }
+  if (out.empty()) ExitWith("no frames in " + root);
+  return out;
+}
+
+perception::DepthCodec ToDepthCodec(v1::DepthEncoding e) {
+  switch (e) {
+    case v1::DEPTH_ENCODING_PNG16:
+      return perception::DepthCodec::kPng16;
+    case v1::DEPTH_ENCODING_ZSTD:
+      return perception::DepthCodec::kZstd;
+    case v1::DEPTH_ENCODING_RVL:
+      return perception::DepthCodec::kRvl;
+    default:
+      return perception::DepthCodec::kRawU16;
+  }
+}
+
+perception::ColorCodec ToColorCodec(v1::ColorEncoding e) {
+  return e == v1::COLOR_ENCODING_PNG    ? perception::ColorCodec::kPng
+         : e == v1::COLOR_ENCODING_JPEG ? perception::ColorCodec::kJpeg
+                                        : perception::ColorCodec::kRawRgb8;
+}
+
+std::vector<std::shared_ptr<const v1::Frame>> EncodeFrames(
+    const std::vector<RealFrame>& frames, const Codec& codec, size_t count,
+    const std::function<Shift(size_t)>& shift) {
+  std::vector<std::string> depth, color;
+  for (const RealFrame& f : frames) {
+    absl::StatusOr<std::string> d = perception::EncodeDepth(ToDepthCodec(codec.depth), f.depth);
+    absl::StatusOr<std::string> c = perception::EncodeColor(ToColorCodec(codec.color), f.color);
+    if (!d.ok() || !c.ok()) ExitWith("a frame does not encode");
+    depth.push_back(*std::move(d));
+    color.push_back(*std::move(c));
+  }
+  std::vector<std::shared_ptr<const v1::Frame>> out;
+  for (size_t k = 0; k < count; ++k) {
+    const size_t i = k % frames.size();
+    auto api = std::make_shared<v1::Frame>(frames[i].api);
+    api->set_sequence(k + 1);
+    const Shift s = shift(k);
+    v1::Vec3& t = *api->mutable_pose()->mutable_translation();
+    t.set_x(t.x() + s.x);
+    t.set_y(t.y() + s.y);
+    t.set_z(t.z() + s.z);
+    api->set_depth_encoding(codec.depth);
+    api->set_depth(depth[i]);
+    api->set_color_encoding(codec.color);
+    api->set_color(color[i]);
+    out.push_back(std::move(api));
+  }
+  return out;
+}
+
+}  // namespace skimap::bench

@@ -1,0 +1,59 @@
+// The real RGB-D frames the ingestion benchmarks send: the 10 640x480 frames of
+// ycbv-0000 (BOP layout), decoded once, then encoded per codec combination exactly as a
+// client sends them (skimap.v1.Frame with depth and colour bytes).
+//
+//   std::vector<RealFrame> frames = LoadYcbvFrames(dir);        // exits on error
+//   auto sent = EncodeFrames(frames, kRvlJpeg, 300, [](size_t k) { return Shift{10.0 * k}; });
+//
+// Thread safety: plain functions and values.
+#ifndef BENCH_YCBV_FRAMES_H_
+#define BENCH_YCBV_FRAMES_H_
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "perception/image_codec.h"
+#include "perception/rgbd_frame.h"
+#include "skimap/v1/frames.pb.h"
+
+namespace skimap::bench {
+
+// One real frame, decoded, and its API form (pose, intrinsics, depth_scale; no images).
+struct RealFrame {
+  v1::Frame api;
+  perception::DepthImage depth;
+  perception::ColorImage color;
+};
+
+// The frames of the BOP dataset at `root`; prints the error and exits when it does not load.
+std::vector<RealFrame> LoadYcbvFrames(const std::string& root);
+
+struct Codec {
+  const char* name;
+  v1::DepthEncoding depth;
+  v1::ColorEncoding color;
+};
+inline constexpr Codec kRvlJpeg{"RVL + JPEG", v1::DEPTH_ENCODING_RVL, v1::COLOR_ENCODING_JPEG};
+inline constexpr Codec kPng16Jpeg{"PNG16 + JPEG", v1::DEPTH_ENCODING_PNG16,
+                                  v1::COLOR_ENCODING_JPEG};
+
+perception::DepthCodec ToDepthCodec(v1::DepthEncoding e);
+perception::ColorCodec ToColorCodec(v1::ColorEncoding e);
+
+// World translation added to a frame's pose.
+struct Shift {
+  double x = 0, y = 0, z = 0;
+};
+
+// `count` frames cycling over `frames`, frame k (0-based) with sequence k + 1 and its
+// pose moved by shift(k), its images encoded with `codec` (each distinct frame encoded
+// once: the copies share its bytes' values).
+std::vector<std::shared_ptr<const v1::Frame>> EncodeFrames(
+    const std::vector<RealFrame>& frames, const Codec& codec, size_t count,
+    const std::function<Shift(size_t)>& shift);
+
+}  // namespace skimap::bench
+
+#endif  // BENCH_YCBV_FRAMES_H_
