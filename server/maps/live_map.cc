@@ -385,22 +385,34 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
     return s;
   }
   FrameIndex::Entry entry{.pose = decoded->pose};
+  perception::IntegrationStats stats;
   if (options_.store != nullptr) {
     const std::string record = frame->SerializeAsString();
     entry.record_bytes = record.size();
-    // Durable before it changes the map or is acknowledged.
+    // Durable before it changes the map or is acknowledged: the record is appended on the
+    // journal threads while this thread stages the frame, and applied only once durable.
     if (source == Source::kAppend) {
-      absl::StatusOr<uint64_t> appended = Journal(storage::JournalRecord::kFrame, record);
-      if (!appended.ok()) return appended.status();
-      position = *appended;
+      std::promise<absl::StatusOr<uint64_t>> appended;
+      std::future<absl::StatusOr<uint64_t>> durable = appended.get_future();
+      auto append = [&] { appended.set_value(Journal(storage::JournalRecord::kFrame, record)); };
+      if (options_.journal == nullptr || !options_.journal->Submit(append)) append();
+      stats = StageFrame(*decoded, FrameStage::kAdd);
+      absl::StatusOr<uint64_t> position_or = durable.get();
+      if (!position_or.ok()) {
+        for (const std::unique_ptr<FrameStage>& stage : stages_) stage->Clear();
+        return position_or.status();
+      }
+      position = *position_or;
+    } else {
+      stats = StageFrame(*decoded, FrameStage::kAdd);
     }
     entry.position = position;
   } else {
     entry.position = ++arrivals_;
     entry.record_bytes = frame->ByteSizeLong();
     entry.frame = frame;
+    stats = StageFrame(*decoded, FrameStage::kAdd);
   }
-  const perception::IntegrationStats stats = StageFrame(*decoded, FrameStage::kAdd);
   const WriteStats written = ApplyStages(1, position);
   index_.Add(frame->sequence(), std::move(entry));
   if (options_.store == nullptr) index_.LimitKeptFrames(options_.max_kept_frame_bytes);

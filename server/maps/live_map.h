@@ -82,6 +82,11 @@ class LiveMap {
     // here before it is applied and acknowledged. Null: the map lives in memory only and
     // UpdatePoses works on the frames kept in memory. Not owned.
     storage::MapStore* store = nullptr;
+    // Threads that append a frame's journal record while the worker stages the frame
+    // (back-projection, batch, sort), so the disk write overlaps that work instead of
+    // preceding it; the frame is applied and acknowledged only once its record is durable.
+    // Null: the worker appends first. Not owned; must outlive the map.
+    WorkQueue* journal = nullptr;
     // Retention policy: once a snapshot covers them, the oldest frame records are pruned
     // from the journal while the map's frame records weigh more than this.
     uint64_t journal_retain_bytes = uint64_t{1} << 30;

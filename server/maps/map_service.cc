@@ -15,10 +15,11 @@ namespace skimap::server {
 namespace {
 
 MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* pool,
-                                     WorkQueue* decoder) {
+                                     WorkQueue* decoder, WorkQueue* journal) {
   MapRegistry::Options r;
   r.map_defaults.pool = pool;
   r.map_defaults.decoder = decoder;
+  r.map_defaults.journal = o.store != nullptr ? journal : nullptr;
   r.map_defaults.queue_capacity = o.queue_capacity;
   r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
   r.map_defaults.store = o.store;
@@ -37,7 +38,9 @@ MapService::MapService(const Options& options)
       pool_(std::make_unique<ThreadPool>(options.worker_threads)),
       decoder_(std::make_unique<WorkQueue>(WorkQueue::Options{
           .capacity = kDecoderCapacity, .threads = std::max(2, options.worker_threads)})),
-      registry_(RegistryOptions(options, pool_.get(), decoder_.get())) {
+      journal_(std::make_unique<WorkQueue>(
+          WorkQueue::Options{.capacity = kDecoderCapacity, .threads = 2})),
+      registry_(RegistryOptions(options, pool_.get(), decoder_.get(), journal_.get())) {
   if (options_.ownership != nullptr) {
     options_.ownership->OnLost([this](const std::string& id) { registry_.Unload(id); });
   }

@@ -196,6 +196,9 @@ class MapService {
   // before the registry, so it outlives every map. A full queue makes a map decode inline.
   static constexpr size_t kDecoderCapacity = 256;
   std::unique_ptr<WorkQueue> decoder_;
+  // Appends frames' journal records beside their staging (LiveMap::Options::journal);
+  // declared before the registry, so it outlives every map.
+  std::unique_ptr<WorkQueue> journal_;
   mutable MapRegistry registry_;  // mutable: a const query may load a map
 
   Mutex maintenance_mu_;
