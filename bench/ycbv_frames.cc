@@ -53,32 +53,46 @@ perception::ColorCodec ToColorCodec(v1::ColorEncoding e) {
                                         : perception::ColorCodec::kRawRgb8;
 }
 
-std::vector<std::shared_ptr<const v1::Frame>> EncodeFrames(
-    const std::vector<RealFrame>& frames, const Codec& codec, size_t count,
-    const std::function<Shift(size_t)>& shift) {
-  std::vector<std::string> depth, color;
+EncodedFrames::EncodedFrames(const std::vector<RealFrame>& frames, const Codec& codec) {
   for (const RealFrame& f : frames) {
     absl::StatusOr<std::string> d = perception::EncodeDepth(ToDepthCodec(codec.depth), f.depth);
     absl::StatusOr<std::string> c = perception::EncodeColor(ToColorCodec(codec.color), f.color);
     if (!d.ok() || !c.ok()) ExitWith("a frame does not encode");
-    depth.push_back(*std::move(d));
-    color.push_back(*std::move(c));
+    v1::Frame e = f.api;
+    e.set_depth_encoding(codec.depth);
+    e.set_depth(*std::move(d));
+    e.set_color_encoding(codec.color);
+    e.set_color(*std::move(c));
+    encoded_.push_back(std::move(e));
   }
+}
+
+v1::Frame EncodedFrames::Make(size_t k, const std::string& map, uint64_t sequence,
+                              const Shift& shift) const {
+  v1::Frame f = encoded_[k % encoded_.size()];
+  f.set_map(map);
+  f.set_sequence(sequence);
+  v1::Vec3& t = *f.mutable_pose()->mutable_translation();
+  t.set_x(t.x() + shift.x);
+  t.set_y(t.y() + shift.y);
+  t.set_z(t.z() + shift.z);
+  return f;
+}
+
+double EncodedFrames::mean_bytes() const {
+  double bytes = 0;
+  for (const v1::Frame& f : encoded_) bytes += double(f.ByteSizeLong());
+  return bytes / double(encoded_.size());
+}
+
+std::vector<std::shared_ptr<const v1::Frame>> EncodeFrames(
+    const std::vector<RealFrame>& frames, const Codec& codec, size_t count,
+    const std::function<Shift(size_t)>& shift) {
+  const EncodedFrames encoded(frames, codec);
   std::vector<std::shared_ptr<const v1::Frame>> out;
   for (size_t k = 0; k < count; ++k) {
-    const size_t i = k % frames.size();
-    auto api = std::make_shared<v1::Frame>(frames[i].api);
-    api->set_sequence(k + 1);
-    const Shift s = shift(k);
-    v1::Vec3& t = *api->mutable_pose()->mutable_translation();
-    t.set_x(t.x() + s.x);
-    t.set_y(t.y() + s.y);
-    t.set_z(t.z() + s.z);
-    api->set_depth_encoding(codec.depth);
-    api->set_depth(depth[i]);
-    api->set_color_encoding(codec.color);
-    api->set_color(color[i]);
-    out.push_back(std::move(api));
+    out.push_back(
+        std::make_shared<const v1::Frame>(encoded.Make(k, "maps/bench", k + 1, shift(k))));
   }
   return out;
 }

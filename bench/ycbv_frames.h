@@ -3,7 +3,8 @@
 // client sends them (skimap.v1.Frame with depth and colour bytes).
 //
 //   std::vector<RealFrame> frames = LoadYcbvFrames(dir);        // exits on error
-//   auto sent = EncodeFrames(frames, kRvlJpeg, 300, [](size_t k) { return Shift{10.0 * k}; });
+//   EncodedFrames rvl_jpeg(frames, kRvlJpeg);
+//   v1::Frame f = rvl_jpeg.Make(k, "maps/m", k + 1, Shift{.x = 10.0 * k});  // new space
 //
 // Thread safety: plain functions and values.
 #ifndef BENCH_YCBV_FRAMES_H_
@@ -47,9 +48,21 @@ struct Shift {
   double x = 0, y = 0, z = 0;
 };
 
-// `count` frames cycling over `frames`, frame k (0-based) with sequence k + 1 and its
-// pose moved by shift(k), its images encoded with `codec` (each distinct frame encoded
-// once: the copies share its bytes' values).
+// The frames encoded once with one codec; Make(k, ...) gives frame k of a sequence:
+// frames[k % n] with those bytes, its pose moved by `shift`.
+class EncodedFrames {
+ public:
+  EncodedFrames(const std::vector<RealFrame>& frames, const Codec& codec);
+  v1::Frame Make(size_t k, const std::string& map, uint64_t sequence, const Shift& shift) const;
+  // Mean bytes of a frame's message.
+  double mean_bytes() const;
+
+ private:
+  std::vector<v1::Frame> encoded_;
+};
+
+// `count` frames of a sequence (EncodedFrames::Make), frame k with sequence k + 1 and its
+// pose moved by shift(k).
 std::vector<std::shared_ptr<const v1::Frame>> EncodeFrames(
     const std::vector<RealFrame>& frames, const Codec& codec, size_t count,
     const std::function<Shift(size_t)>& shift);

@@ -1,0 +1,414 @@
+// stream_bench: ingestion of real RGB-D frames over loopback gRPC (issue 15's stream
+// floors; docs/benchmarks.md, "Ingestion over gRPC"). A plain program, not a test:
+//
+//   build/release/bench/stream_bench [--ycbv=DIR] [--frames=300] [--resolution=0.02]
+//       [--window=8] [--reps=2] [--queries=200] [--data_dir=DIR]
+//
+// skimapd's composition root (server::Server, --worker_threads 2 as skimapd's default) runs
+// in this process with its gRPC adapter on a loopback port; the client (client::FrameStream
+// with --window frames in flight) sends through real sockets. Frames: the 10 real 640x480
+// frames of ycbv-0000, encoded once per codec (RVL or PNG16 depth, JPEG q90 colour); frame k
+// is moved 10 m along x, so every frame lands in new space. The client copies a pre-encoded
+// frame and sets its pose before sending (no encoding in the timed loop; a robot encodes on
+// its own CPU). Journal off: maps in memory. Journal on: maps.sqlite under --data_dir (WAL,
+// synchronous=FULL: each frame's record is fsynced before its ack; snapshots every 10 s, as
+// skimapd's default).
+//
+// 1. The disk under --data_dir: fsyncs/s overwriting 4 kB; appends/s of a frame-sized record
+//    (write + fdatasync, the journal's pattern) and the MB/s that makes; sequential write
+//    MB/s (256 MB, one fsync).
+// 2. One stream, per codec, journal off and on: frames/s acknowledged (first send to last
+//    ack), ack latency p50/p99 (from the Send call, so it includes waiting for the window).
+// 3. Four streams into four maps, RVL + JPEG, journal off and on: total and slowest
+//    stream's frames/s.
+// 4. A 20 m x 20 m GetOccupancyGrid while two streams ingest into the same map at full
+//    speed: the map is first filled with 400 frames on a 1 m lattice over the region, then
+//    two streams send frames of new space (the lattice again, 3 m higher per pass) while
+//    --queries grid queries run 5 ms apart; p50/p99 and the frames/s meanwhile.
+//
+// Runs 2 and 3 repeat --reps times, journal off and on interleaved; each cell is the best
+// repetition (the shared machine's noise only slows runs down).
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_split.h"
+#include "bench/ycbv_frames.h"
+#include "client/frame_stream.h"
+#include "client/map_client.h"
+#include "server/server.h"
+
+ABSL_FLAG(std::string, ycbv, SKIMAP_BENCH_YCBV_DIR, "the ycbv-0000 BOP dataset root");
+ABSL_FLAG(int, frames, 300, "frames per stream in runs 2 and 3");
+ABSL_FLAG(double, resolution, 0.02, "voxel edge, metres");
+ABSL_FLAG(int, window, 8, "frames in flight per stream");
+ABSL_FLAG(int, reps, 2, "repetitions of runs 2 and 3 (best kept)");
+ABSL_FLAG(int, queries, 200, "grid queries in run 4");
+ABSL_FLAG(int, idle_queries, 50, "grid queries in run 4 before the streams start");
+ABSL_FLAG(std::string, sections, "disk,streams,grid",
+          "which runs: disk (1), streams (2, 3), grid (4)");
+ABSL_FLAG(std::string, data_dir, "",
+          "where the journal-on server keeps maps.sqlite and the "
+          "disk is measured (default: a fresh directory under /var/tmp)");
+
+namespace skimap::bench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr size_t kLattice = 1600;  // frames of one pass over the grid's region (run 4)
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+double Ms(Clock::duration d) { return Seconds(d) * 1e3; }
+
+[[noreturn]] void Die(const std::string& what) {
+  std::fprintf(stderr, "stream_bench: %s\n", what.c_str());
+  std::exit(1);
+}
+
+double Percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, size_t(p * double(v.size())))];
+}
+
+// 1. The disk.
+struct Disk {
+  double overwrite_fsyncs_per_s = 0, appends_per_s = 0, append_mb_per_s = 0,
+         sequential_mb_per_s = 0;
+};
+Disk MeasureDisk(const std::string& dir, size_t record_bytes) {
+  Disk out;
+  const std::string path = dir + "/disk_probe";
+  int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  if (fd < 0) Die("cannot write in " + dir);
+  std::string block(4096, 'x');
+  int ops = 0;
+  Clock::time_point start = Clock::now();
+  while (Seconds(Clock::now() - start) < 2) {
+    if (pwrite(fd, block.data(), block.size(), 0) != ssize_t(block.size()) || fdatasync(fd) != 0) {
+      Die("disk probe write failed");
+    }
+    ++ops;
+  }
+  out.overwrite_fsyncs_per_s = ops / Seconds(Clock::now() - start);
+  const std::string record(record_bytes, 'r');
+  ops = 0;
+  start = Clock::now();
+  while (Seconds(Clock::now() - start) < 3) {
+    if (write(fd, record.data(), record.size()) != ssize_t(record.size()) || fdatasync(fd) != 0) {
+      Die("disk probe append failed");
+    }
+    ++ops;
+  }
+  const double append_s = Seconds(Clock::now() - start);
+  out.appends_per_s = ops / append_s;
+  out.append_mb_per_s = double(ops) * double(record_bytes) / append_s / 1e6;
+  if (ftruncate(fd, 0) != 0) Die("disk probe truncate failed");
+  const std::string chunk(size_t{1} << 20, 's');
+  start = Clock::now();
+  for (int i = 0; i < 256; ++i) {
+    if (write(fd, chunk.data(), chunk.size()) != ssize_t(chunk.size())) Die("disk write failed");
+  }
+  if (fsync(fd) != 0) Die("disk fsync failed");
+  out.sequential_mb_per_s = 256.0 * double(chunk.size()) / 1e6 / Seconds(Clock::now() - start);
+  close(fd);
+  std::filesystem::remove(path);
+  return out;
+}
+
+struct Run {
+  int acked = 0;
+  double seconds = 0;
+  std::vector<double> ack_ms;
+  double fps() const { return seconds > 0 ? acked / seconds : 0; }
+};
+
+// Streams frames [0, count) of `frames` (moved by shift(k)) into `map` on one StreamFrames
+// call, until `stop` if given; every ack must be OK.
+Run StreamInto(client::MapClient& client, const std::string& map, const EncodedFrames& frames,
+               size_t count, uint64_t first_sequence, const std::function<Shift(size_t)>& shift,
+               int window, const std::atomic<bool>* stop = nullptr, size_t first_frame = 0) {
+  std::mutex mu;
+  std::vector<Clock::time_point> sent(count);
+  Run run;
+  std::string error;
+  auto stream = client.OpenFrameStream(
+      {.window = window,
+       .on_ack =
+           [&](const v1::FrameAck& ack) {
+             std::lock_guard<std::mutex> lock(mu);
+             if (ack.code() != 0) {
+               error = absl::StrCat("frame ", ack.sequence(), ": ", ack.message());
+               return;
+             }
+             run.ack_ms.push_back(Ms(Clock::now() - sent[ack.sequence() - first_sequence]));
+           }},
+      map);
+  const Clock::time_point start = Clock::now();
+  size_t k = 0;
+  for (; k < count && !(stop != nullptr && stop->load()); ++k) {
+    const v1::Frame f = frames.Make(first_frame + k, map, first_sequence + k, shift(k));
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      sent[k] = Clock::now();
+    }
+    if (absl::Status s = stream->Send(f); !s.ok()) Die("send: " + s.ToString());
+  }
+  absl::StatusOr<std::vector<v1::FrameAck>> acks = stream->Finish();
+  run.seconds = Seconds(Clock::now() - start);
+  if (!acks.ok()) Die("stream: " + acks.status().ToString());
+  if (!error.empty()) Die(error);
+  run.acked = int(acks->size());
+  if (size_t(run.acked) != k) Die("frames went unacknowledged");
+  return run;
+}
+
+void CreateMap(client::MapClient& client, const std::string& id, double resolution) {
+  v1::CreateMapRequest request;
+  request.set_map_id(id);
+  request.mutable_options()->set_resolution(resolution);
+  if (auto map = client.CreateMap(request); !map.ok()) Die(map.status().ToString());
+}
+
+struct Server {
+  std::unique_ptr<server::Server> server;
+  std::unique_ptr<client::MapClient> client;
+};
+Server StartServer(const std::string& maps_db) {
+  server::Server::Options options;
+  options.grpc.address = "127.0.0.1:0";
+  options.maps_db_path = maps_db;
+  auto s = server::Server::Start(options);
+  if (!s.ok()) Die(s.status().ToString());
+  Server out{*std::move(s), nullptr};
+  out.client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", out.server->grpc_port()));
+  return out;
+}
+
+void Main() {
+  const std::vector<RealFrame> real = LoadYcbvFrames(absl::GetFlag(FLAGS_ycbv));
+  const double res = absl::GetFlag(FLAGS_resolution);
+  const int window = absl::GetFlag(FLAGS_window);
+  const size_t count = size_t(absl::GetFlag(FLAGS_frames));
+  std::string dir = absl::GetFlag(FLAGS_data_dir);
+  if (dir.empty()) {
+    dir = absl::StrCat("/var/tmp/stream_bench_", getpid());
+  }
+  std::filesystem::create_directories(dir);
+  const EncodedFrames rvl(real, kRvlJpeg), png(real, kPng16Jpeg);
+  const Codec* codecs[] = {&kRvlJpeg, &kPng16Jpeg};
+  const EncodedFrames* encoded[] = {&rvl, &png};
+  auto new_space = [](size_t k) { return Shift{.x = 10.0 * double(k)}; };
+  std::printf("stream_bench: %zu ycbv frames 640x480, %.0f cm, window %d, %zu frames per stream\n",
+              real.size(), res * 100, window, count);
+  std::printf("frame message: RVL + JPEG %.0f kB, PNG16 + JPEG %.0f kB\n", rvl.mean_bytes() / 1e3,
+              png.mean_bytes() / 1e3);
+
+  const std::vector<std::string> sections = absl::StrSplit(absl::GetFlag(FLAGS_sections), ',');
+  auto want = [&](const char* name) {
+    return std::find(sections.begin(), sections.end(), name) != sections.end();
+  };
+  if (want("disk")) {
+    const Disk disk = MeasureDisk(dir, size_t(rvl.mean_bytes()));
+    std::printf(
+        "\n### The disk under %s\n\n| 4 kB overwrite + fdatasync | %.0f kB record append + "
+        "fdatasync | that append rate | sequential write (256 MB + fsync) |\n|---|---|---|---|\n"
+        "| %.0f /s | %.0f /s | %.0f MB/s | %.0f MB/s |\n",
+        dir.c_str(), rvl.mean_bytes() / 1e3, disk.overwrite_fsyncs_per_s, disk.appends_per_s,
+        disk.append_mb_per_s, disk.sequential_mb_per_s);
+    std::fflush(stdout);
+  }
+
+  if (want("streams")) {
+    // 2 and 3, journal off (index 0) and on (1), best of reps.
+    Run one[2][2], four_total[2];
+    double four_slowest[2] = {0, 0};
+    for (int rep = 0; rep < absl::GetFlag(FLAGS_reps); ++rep) {
+      for (int journal = 0; journal < 2; ++journal) {
+        const std::string db = absl::StrCat(dir, "/maps_", rep, ".sqlite");
+        Server s = StartServer(journal ? db : "");
+        for (int c = 0; c < 2; ++c) {
+          const std::string id = absl::StrCat("one", c);
+          CreateMap(*s.client, id, res);
+          Run r = StreamInto(*s.client, "maps/" + id, *encoded[c], count, 1, new_space, window);
+          if (r.fps() > one[c][journal].fps()) one[c][journal] = std::move(r);
+        }
+        std::vector<Run> runs(4);
+        std::vector<std::thread> threads;
+        for (int i = 0; i < 4; ++i) CreateMap(*s.client, absl::StrCat("four", i), res);
+        const Clock::time_point start = Clock::now();
+        for (int i = 0; i < 4; ++i) {
+          threads.emplace_back([&, i] {
+            runs[i] = StreamInto(*s.client, absl::StrCat("maps/four", i), rvl, count, 1, new_space,
+                                 window);
+          });
+        }
+        for (std::thread& t : threads) t.join();
+        Run total;
+        total.seconds = Seconds(Clock::now() - start);
+        double slowest = 1e9;
+        for (const Run& r : runs) {
+          total.acked += r.acked;
+          slowest = std::min(slowest, r.fps());
+        }
+        if (total.fps() > four_total[journal].fps()) {
+          four_total[journal] = total;
+          four_slowest[journal] = slowest;
+        }
+        s.server.reset();
+        std::filesystem::remove(db), std::filesystem::remove(db + "-wal"),
+            std::filesystem::remove(db + "-shm");
+      }
+    }
+    std::printf(
+        "\n### One stream, new space, %.0f cm, %zu frames, %d in flight (best of %d)\n\n"
+        "| codec | journal | frames/s | ack p50 ms | ack p99 ms | journal MB/s |\n"
+        "|---|---|---|---|---|---|\n",
+        res * 100, count, window, absl::GetFlag(FLAGS_reps));
+    for (int c = 0; c < 2; ++c) {
+      for (int journal = 0; journal < 2; ++journal) {
+        const Run& r = one[c][journal];
+        std::printf(
+            "| %s | %s | %.1f | %.1f | %.1f | %s |\n", codecs[c]->name, journal ? "on" : "off",
+            r.fps(), Percentile(r.ack_ms, 0.5), Percentile(r.ack_ms, 0.99),
+            journal ? absl::StrFormat("%.1f", r.fps() * encoded[c]->mean_bytes() / 1e6).c_str()
+                    : "-");
+      }
+    }
+    std::printf(
+        "\n### Four streams into four maps, RVL + JPEG, %zu frames each (best of %d)\n\n"
+        "| journal | total frames/s | slowest stream frames/s | journal MB/s "
+        "|\n|---|---|---|---|\n",
+        count, absl::GetFlag(FLAGS_reps));
+    for (int journal = 0; journal < 2; ++journal) {
+      std::printf(
+          "| %s | %.1f | %.1f | %s |\n", journal ? "on" : "off", four_total[journal].fps(),
+          four_slowest[journal],
+          journal
+              ? absl::StrFormat("%.1f", four_total[journal].fps() * rvl.mean_bytes() / 1e6).c_str()
+              : "-");
+    }
+    std::fflush(stdout);
+  }
+
+  // 4. The grid under ingestion (journal off).
+  if (want("grid")) {
+    Server s = StartServer("");
+    // Where each of the frames lands on its own (the sequence's camera moves, so their
+    // world boxes differ): one map per frame.
+    struct Box {
+      double cx, cy, min_z;
+    };
+    std::vector<Box> boxes;
+    for (size_t i = 0; i < real.size(); ++i) {
+      const std::string id = absl::StrCat("probe", i);
+      CreateMap(*s.client, id, res);
+      StreamInto(
+          *s.client, "maps/" + id, rvl, 1, 1, [](size_t) { return Shift{}; }, window, nullptr, i);
+      absl::StatusOr<v1::Map> probe = s.client->GetMap("maps/" + id);
+      if (!probe.ok()) Die(probe.status().ToString());
+      const v1::Box3& b = probe->stats().bounds();
+      boxes.push_back(
+          {(b.min().x() + b.max().x()) / 2, (b.min().y() + b.max().y()) / 2, b.min().z()});
+    }
+    // Copy k of a pass: frame k mod 10 centred on lattice point (k mod 40, k / 40 mod 40),
+    // 0.5 m apart over the 20 m x 20 m region around the origin, its lowest voxel 25 cm below
+    // z = 0 (its table in the grid's default floor band, -0.3 .. 0.05 m, objects in the
+    // obstacle band above). One frame spans more than 0.5 m in x and y, so every column of
+    // the region holds voxels. Pass p = k / 1600 is p * 3 m higher.
+    auto lattice = [&boxes](size_t k) {
+      const Box& b = boxes[k % boxes.size()];
+      return Shift{.x = -9.75 + 0.5 * double(k % 40) - b.cx,
+                   .y = -9.75 + 0.5 * double((k / 40) % 40) - b.cy,
+                   .z = -0.25 - b.min_z + 3.0 * double(k / kLattice)};
+    };
+    CreateMap(*s.client, "grid", res);
+    StreamInto(*s.client, "maps/grid", rvl, kLattice, 1, lattice, window);
+    absl::StatusOr<v1::Map> filled = s.client->GetMap("maps/grid");
+    if (!filled.ok()) Die(filled.status().ToString());
+    const v1::Box3& fb = filled->stats().bounds();
+    std::printf(
+        "\ngrid map: %zu frames on the lattice, %llu voxels in x %.2f..%.2f, y %.2f..%.2f, "
+        "z %.2f..%.2f m\n",
+        kLattice, static_cast<unsigned long long>(filled->stats().voxels()), fb.min().x(),
+        fb.max().x(), fb.min().y(), fb.max().y(), fb.min().z(), fb.max().z());
+    v1::GetOccupancyGridRequest request;
+    request.set_map("maps/grid");
+    request.mutable_region()->set_min_x(-10);
+    request.mutable_region()->set_min_y(-10);
+    request.mutable_region()->set_max_x(10);
+    request.mutable_region()->set_max_y(10);
+    std::vector<double> idle;
+    for (int q = 0; q < absl::GetFlag(FLAGS_idle_queries); ++q) {
+      const Clock::time_point t0 = Clock::now();
+      if (auto g = s.client->GetOccupancyGrid(request); !g.ok()) Die(g.status().ToString());
+      idle.push_back(Ms(Clock::now() - t0));
+    }
+    std::atomic<bool> stop{false};
+    std::vector<Run> runs(2);
+    std::vector<std::thread> streams;
+    const Clock::time_point start = Clock::now();
+    for (int i = 0; i < 2; ++i) {
+      streams.emplace_back([&, i] {
+        // Stream i sends passes 1 + i, 3 + i, ...: always new space, inside the region.
+        auto shift = [&](size_t k) {
+          Shift sh = lattice(k % kLattice);
+          sh.z += 3.0 * double(1 + i + 2 * (k / kLattice));
+          return sh;
+        };
+        runs[i] = StreamInto(*s.client, "maps/grid", rvl, 1000000, 1000000 * (i + 1), shift, window,
+                             &stop);
+      });
+    }
+    std::vector<double> ms;
+    size_t cells = 0, occupied = 0, known = 0;
+    for (int q = 0; q < absl::GetFlag(FLAGS_queries); ++q) {
+      const Clock::time_point t0 = Clock::now();
+      absl::StatusOr<v1::OccupancyGrid> grid = s.client->GetOccupancyGrid(request);
+      ms.push_back(Ms(Clock::now() - t0));
+      if (!grid.ok()) Die(grid.status().ToString());
+      cells = grid->data().size();
+      occupied = size_t(std::count(grid->data().begin(), grid->data().end(), char(100)));
+      known = cells - size_t(std::count(grid->data().begin(), grid->data().end(), char(-1)));
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    stop = true;
+    for (std::thread& t : streams) t.join();
+    const double seconds = Seconds(Clock::now() - start);
+    const int ingested = runs[0].acked + runs[1].acked;
+    absl::StatusOr<v1::Map> grid_map = s.client->GetMap("maps/grid");
+    std::printf(
+        "\n### 20 m x 20 m occupancy grid at %.0f cm while two streams ingest into the map\n\n"
+        "| grid cells | known | occupied | map voxels at the end | queries | p50 ms | p99 ms | "
+        "max ms | ingestion meanwhile, frames/s | idle p50 / p99 ms |\n"
+        "|---|---|---|---|---|---|---|---|---|---|\n"
+        "| %zu | %zu | %zu | %llu | %zu | %.1f | %.1f | %.1f | %.1f | %.1f / %.1f |\n",
+        res * 100, cells, known, occupied,
+        grid_map.ok() ? static_cast<unsigned long long>(grid_map->stats().voxels()) : 0ULL,
+        ms.size(), Percentile(ms, 0.5), Percentile(ms, 0.99), Percentile(ms, 1.0),
+        ingested / seconds, Percentile(idle, 0.5), Percentile(idle, 0.99));
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace skimap::bench
+
+int main(int argc, char** argv) {
+  absl::ParseCommandLine(argc, argv);
+  skimap::bench::Main();
+  return 0;
+}
