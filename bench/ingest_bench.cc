@@ -60,6 +60,7 @@
 #include "absl/strings/str_split.h"
 #include "bench/ycbv_frames.h"
 #include "perception/image_codec.h"
+#include "server/malloc_tuning.h"
 #include "server/maps/frame_decode.h"
 #include "server/maps/frame_stages.h"
 #include "server/maps/live_map.h"
@@ -600,6 +601,10 @@ int main(int argc, char** argv) {
     execv("/proc/self/exe", argv);
   }
 #endif
+  // skimapd's allocator settings, for both sides: Open3D's 196 kB volume units then come
+  // from the heap too instead of a fresh mmap each (without them its running-volume
+  // figures depend on which run freed memory first).
+  skimap::server::TuneMallocForServer();
   absl::ParseCommandLine(argc, argv);
   skimap::bench::Run();
   return 0;

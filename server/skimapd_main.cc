@@ -42,6 +42,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_split.h"
 #include "server/logging/log.h"
+#include "server/malloc_tuning.h"
 #include "server/server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
@@ -98,6 +99,9 @@ ABSL_FLAG(bool, metrics_public, true,
           "GET /metrics (Prometheus text on --http_address) answers without a token when "
           "authentication is configured; false: it needs a token like the other routes");
 ABSL_FLAG(int, worker_threads, 2, "integration threads shared by all maps");
+ABSL_FLAG(int, ingest_nice, 5,
+          "scheduling niceness (0..19) of the ingestion threads (integration, decoding, map "
+          "workers): when ingestion saturates the cores, queries still get most of a core");
 ABSL_FLAG(int, max_message_mb, 80, "largest gRPC message in MiB (frames are limited to 80%)");
 ABSL_FLAG(int, max_in_flight, 8, "unacknowledged frames per StreamFrames call");
 ABSL_FLAG(int, queue_capacity, 64, "queued writes per map before RESOURCE_EXHAUSTED");
@@ -124,6 +128,7 @@ ABSL_FLAG(int64_t, journal_retain_mb, 1024,
           "pruned frame answers FAILED_PRECONDITION)");
 
 int main(int argc, char** argv) {
+  skimap::server::TuneMallocForServer();
   absl::SetProgramUsageMessage("SkiMap map server: skimapd [--address=host:port] ...");
   absl::ParseCommandLine(argc, argv);
   if (const std::string format = absl::GetFlag(FLAGS_log_format); format == "json") {
@@ -160,7 +165,8 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_max_map_voxels) < 0 || absl::GetFlag(FLAGS_max_frame_pixels) < 0 ||
       absl::GetFlag(FLAGS_max_streams_per_client) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100 ||
       absl::GetFlag(FLAGS_http_max_body_mb) < 1 || absl::GetFlag(FLAGS_http_max_body_mb) > 4096 ||
-      absl::GetFlag(FLAGS_http_threads) < 1 || absl::GetFlag(FLAGS_http_max_event_streams) < 0) {
+      absl::GetFlag(FLAGS_http_threads) < 1 || absl::GetFlag(FLAGS_http_max_event_streams) < 0 ||
+      absl::GetFlag(FLAGS_ingest_nice) < 0 || absl::GetFlag(FLAGS_ingest_nice) > 19) {
     std::fprintf(stderr, "skimapd: flag out of range (see --help)\n");
     return 2;
   }
@@ -195,6 +201,7 @@ int main(int argc, char** argv) {
   }
   options.maps.max_frame_bytes = size_t(options.grpc.max_message_bytes) / 5 * 4;
   options.maps.worker_threads = absl::GetFlag(FLAGS_worker_threads);
+  options.maps.ingest_nice = absl::GetFlag(FLAGS_ingest_nice);
   options.maps.queue_capacity = absl::GetFlag(FLAGS_queue_capacity);
   options.maps.lazy_load = absl::GetFlag(FLAGS_lazy_load);
   options.maps.memory_budget_bytes = uint64_t(absl::GetFlag(FLAGS_memory_budget_mb)) << 20;

@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "server/logging/request_context.h"
+#include "skimap/thread_pool.h"
 
 namespace skimap::server {
 namespace {
@@ -23,7 +24,12 @@ std::function<void()> WithRequest(std::function<void()> task) {
 
 WorkQueue::WorkQueue(const Options& options)
     : capacity_(options.capacity < 1 ? 1 : options.capacity) {
-  for (int i = 0; i < std::max(1, options.threads); ++i) threads_.emplace_back([this] { Loop(); });
+  for (int i = 0; i < std::max(1, options.threads); ++i) {
+    threads_.emplace_back([this, nice = options.nice] {
+      SetThreadNice(nice);
+      Loop();
+    });
+  }
 }
 
 WorkQueue::~WorkQueue() {

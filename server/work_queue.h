@@ -33,6 +33,7 @@ class WorkQueue {
   struct Options {
     size_t capacity = 64;  // queued (not yet running) tasks, >= 1
     int threads = 1;       // worker threads, >= 1
+    int nice = 0;          // their niceness (SetThreadNice): > 0 for bulk work
   };
   explicit WorkQueue(const Options& options);
   ~WorkQueue();

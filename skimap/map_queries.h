@@ -96,6 +96,38 @@ void ForEachRasterColumn(const SkiMap<V>& map, const RasterGeometry& g, ThreadPo
     pool->ParallelFor(size_t(g.width), slab);
   }
 }
+
+// An occupancy grid's z bands in keys: a column is occupied with a voxel in [band0, band1],
+// else free with one in [floor0, floor1].
+struct OccupancyBands {
+  int32_t band0, band1, floor0, floor1;
+  float min_weight;
+  friend bool operator==(const OccupancyBands&, const OccupancyBands&) = default;
+};
+inline OccupancyBands MakeOccupancyBands(const Grid& grid, const OccupancyGridOptions& opt) {
+  OccupancyBands b;
+  grid.CenterRange(opt.band_min_z, opt.band_max_z, grid.origin().z, &b.band0, &b.band1);
+  grid.CenterRange(opt.floor_min_z, opt.band_min_z, grid.origin().z, &b.floor0, &b.floor1);
+  if (b.floor1 >= b.band0) b.floor1 = b.band0 - 1;  // a centre exactly at band_min_z is in the band
+  b.min_weight = opt.min_weight;
+  return b;
+}
+// The cell of one (x, y) column: kOccupied, kFree or kUnknown.
+template <Voxel V>
+int8_t ColumnOccupancy(const typename SkiMap<V>::ZColumn& column, const OccupancyBands& b) {
+  bool occupied = false, floor = false;
+  column.ForEachInRange(b.floor0, b.band1, [&](int32_t kz, const V& v) {
+    if (v.Weight() < b.min_weight) return;
+    if (kz >= b.band0) {
+      occupied = true;
+    } else if (kz <= b.floor1) {
+      floor = true;
+    }
+  });
+  return occupied ? OccupancyGrid::kOccupied
+         : floor  ? OccupancyGrid::kFree
+                  : OccupancyGrid::kUnknown;
+}
 }  // namespace internal
 
 template <Voxel V>
@@ -138,26 +170,11 @@ absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
   OccupancyGrid out{
       *geo, std::vector<int8_t>(size_t(geo->width) * size_t(geo->height), OccupancyGrid::kUnknown)};
   if (out.cells.empty()) return out;
-  const Grid& grid = map.grid();
-  int32_t band0, band1, floor0, floor1;
-  grid.CenterRange(opt.band_min_z, opt.band_max_z, grid.origin().z, &band0, &band1);
-  grid.CenterRange(opt.floor_min_z, opt.band_min_z, grid.origin().z, &floor0, &floor1);
-  if (floor1 >= band0) floor1 = band0 - 1;  // a centre exactly at band_min_z is in the band
+  const internal::OccupancyBands bands = internal::MakeOccupancyBands(map.grid(), opt);
   internal::ForEachRasterColumn(
       map, *geo, opt.pool, [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
-        bool occupied = false, floor = false;
-        column.ForEachInRange(floor0, band1, [&](int32_t kz, const V& v) {
-          if (v.Weight() < opt.min_weight) return;
-          if (kz >= band0) {
-            occupied = true;
-          } else if (kz <= floor1) {
-            floor = true;
-          }
-        });
         const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
-        out.cells[i] = occupied ? OccupancyGrid::kOccupied
-                       : floor  ? OccupancyGrid::kFree
-                                : OccupancyGrid::kUnknown;
+        out.cells[i] = internal::ColumnOccupancy<V>(column, bands);
       });
   return out;
 }

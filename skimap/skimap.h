@@ -150,6 +150,17 @@ class SkiMap {
   // x in [min_x, max_x] and y in [min_y, max_y], in (x, y) order.
   template <class Fn>
   void ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32_t max_y, Fn&& fn) const;
+  // fn(int32_t x, uint64_t version, std::span<const std::pair<int32_t, uint64_t>> y_blocks)
+  // for every x column (the voxels with key.x == x) in [min_x, max_x], ascending. A
+  // column's version changes with every write that touches it and with nothing else
+  // (Compact keeps it); y_blocks gives, sorted by block, the version of the last write to
+  // each block of ys (y >> kYBlockShift) the column was ever written in. Versions are
+  // unique across all maps of the process, so a column removed and created again, or one
+  // of another map, never shows an earlier version. What caches of per-column results
+  // check (OccupancyGridCache). The span is valid during the call only.
+  static constexpr int kYBlockShift = 6;
+  template <class Fn>
+  void ForEachColumnVersion(int32_t min_x, int32_t max_x, Fn&& fn) const;
 
   // Number of voxels.
   size_t size() const { return size_.load(std::memory_order_relaxed); }
@@ -170,6 +181,8 @@ class SkiMap {
 
   WriteStats Apply(const typename VoxelBatch<V>::Item* items, size_t n, bool integrate)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(writer_mu_);
+  static void StampYBlocks(Column& column, const typename VoxelBatch<V>::Item* begin,
+                           const typename VoxelBatch<V>::Item* end, uint64_t version);
   static WriteStats ApplyToColumn(Column& column, int32_t x,
                                   const typename VoxelBatch<V>::Item* begin,
                                   const typename VoxelBatch<V>::Item* end, bool integrate);

@@ -3,6 +3,7 @@
 #define SKIMAP_SKIMAP_IMPL_H_
 
 #include <algorithm>
+#include <atomic>
 #include <utility>
 
 namespace skimap {
@@ -17,6 +18,12 @@ inline uint32_t MixSeed(uint32_t seed, int32_t x, int32_t y) {
   const uint32_t r = static_cast<uint32_t>(h);
   return r == 0 ? 1 : r;
 }
+// A write number no column of any map has had: versions stay unique across maps, and
+// across a column removed and created again.
+inline uint64_t NextColumnVersion() {
+  static std::atomic<uint64_t> writes{0};
+  return writes.fetch_add(1, std::memory_order_relaxed) + 1;
+}
 // Below this many voxels a batch is applied on the calling thread alone.
 inline constexpr size_t kParallelMinItems = 4096;
 }  // namespace internal
@@ -30,6 +37,10 @@ struct SkiMap<V>::Column {
     ys.Clear(arena);
   }
   mutable RwLock mu;
+  // The process-wide write number of the last write to this column, and of the last write
+  // to each of its y blocks (y >> kYBlockShift; sorted by block): ForEachColumnVersion.
+  std::atomic<uint64_t> version{0};
+  std::vector<std::pair<int32_t, uint64_t>> y_blocks ABSL_GUARDED_BY(mu);
   SkipListArena arena ABSL_GUARDED_BY(mu);
   YList ys ABSL_GUARDED_BY(mu);
   size_t heap_bytes ABSL_GUARDED_BY(mu) = 0;  // sum of V::HeapBytes in this column
@@ -158,6 +169,8 @@ std::unique_ptr<typename SkiMap<V>::Column> SkiMap<V>::CopyColumn(
     }
   }
   fresh->heap_bytes = old.heap_bytes;
+  fresh->version.store(old.version.load(std::memory_order_acquire), std::memory_order_release);
+  fresh->y_blocks = old.y_blocks;
   return fresh;
 }
 
@@ -189,12 +202,15 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
     }
   }
 
+  const uint64_t version = internal::NextColumnVersion();
   auto apply_runs = [&](size_t first, size_t last) {
     for (size_t i = first; i < last; ++i) {
       Run& r = runs[i];
       if (r.column == nullptr) continue;
       WriterLock lock(&r.column->mu);
       r.stats = ApplyToColumn(*r.column, r.x, items + r.begin, items + r.end, integrate);
+      r.column->version.store(version, std::memory_order_release);
+      StampYBlocks(*r.column, items + r.begin, items + r.end, version);
     }
   };
   ThreadPool* pool = options_.pool;
@@ -230,6 +246,29 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
   }
   size_.fetch_add(total.voxels_created - total.voxels_removed, std::memory_order_relaxed);
   return total;
+}
+
+template <Voxel V>
+void SkiMap<V>::StampYBlocks(Column& c, const typename VoxelBatch<V>::Item* begin,
+                             const typename VoxelBatch<V>::Item* end, uint64_t version)
+    ABSL_NO_THREAD_SAFETY_ANALYSIS {  // caller holds c.mu
+  auto& blocks = c.y_blocks;
+  int32_t last = 0;
+  bool any = false;
+  for (auto* it = begin; it != end; ++it) {
+    const int32_t block = it->key.y >> kYBlockShift;
+    if (any && block == last) continue;  // items are sorted by y: blocks come in runs
+    any = true;
+    last = block;
+    auto pos = std::lower_bound(
+        blocks.begin(), blocks.end(), block,
+        [](const std::pair<int32_t, uint64_t>& b, int32_t key) { return b.first < key; });
+    if (pos != blocks.end() && pos->first == block) {
+      pos->second = version;
+    } else {
+      blocks.insert(pos, {block, version});
+    }
+  }
 }
 
 template <Voxel V>

@@ -220,6 +220,18 @@ void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&&
 
 template <Voxel V>
 template <class Fn>
+void SkiMap<V>::ForEachColumnVersion(int32_t min_x, int32_t max_x, Fn&& fn) const {
+  ReaderLock x_lock(&x_mu_);
+  for (auto* xn = xs_.LowerBound(min_x); xn != nullptr && xn->key <= max_x; xn = xn->next[0]) {
+    const Column& column = *xn->value;
+    ReaderLock lock(&column.mu);
+    fn(xn->key, column.version.load(std::memory_order_acquire),
+       std::span<const std::pair<int32_t, uint64_t>>(column.y_blocks));
+  }
+}
+
+template <Voxel V>
+template <class Fn>
 void SkiMap<V>::ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32_t max_y,
                               Fn&& fn) const {
   ReaderLock x_lock(&x_mu_);

@@ -1,9 +1,26 @@
 #include "skimap/thread_pool.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+
 namespace skimap {
 
-ThreadPool::ThreadPool(int workers) : worker_count_(workers > 0 ? workers : 0) {
-  for (size_t i = 0; i < worker_count_; ++i) threads_.emplace_back([this, i] { WorkerLoop(i); });
+void SetThreadNice(int nice) {
+  if (nice <= 0) return;
+  // Best effort: a failure leaves the thread at the process's priority.
+  (void)setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), std::min(nice, 19));
+}
+
+ThreadPool::ThreadPool(int workers, int nice) : worker_count_(workers > 0 ? workers : 0) {
+  for (size_t i = 0; i < worker_count_; ++i) {
+    threads_.emplace_back([this, i, nice] {
+      SetThreadNice(nice);
+      WorkerLoop(i);
+    });
+  }
 }
 
 ThreadPool::~ThreadPool() {

@@ -20,10 +20,17 @@
 
 namespace skimap {
 
+// Sets the calling thread's niceness (Linux; clamped to 0..19). A server lowers the
+// priority of its bulk work (ingestion) so that interactive work (queries) keeps its
+// latency when the cores are saturated; no effect at 0 or on an idle machine.
+void SetThreadNice(int nice);
+
 class ThreadPool {
  public:
-  // Starts `workers` threads (0 = run everything on the caller).
-  explicit ThreadPool(int workers);
+  // Starts `workers` threads (0 = run everything on the caller), each at `nice` (Linux
+  // scheduling niceness, 0..19: above 0 they yield to other threads of the process when the
+  // cores are busy; see SetThreadNice).
+  explicit ThreadPool(int workers, int nice = 0);
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
   ThreadPool& operator=(const ThreadPool&) = delete;

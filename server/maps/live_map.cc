@@ -101,7 +101,7 @@ LiveMap::LiveMap(std::string id, const Options& options)
       options_(options),
       state_(options.config, options.pool),
       stages_(MakeFrameStages(options.config, Grid(options.config.resolution), options.pool)),
-      queue_({.capacity = options.queue_capacity}) {
+      queue_({.capacity = options.queue_capacity, .nice = options.worker_nice}) {
   StartRecognition();
 }
 

@@ -76,7 +76,8 @@ class LiveMap {
     // worker decodes what they have not started. Null: the worker decodes. Not owned; must
     // outlive the map.
     WorkQueue* decoder = nullptr;
-    size_t queue_capacity = 64;                     // queued writes before ResourceExhausted
+    size_t queue_capacity = 64;  // queued writes before ResourceExhausted
+    int worker_nice = 0;         // the map worker's niceness (MapService::Options::ingest_nice)
     size_t max_kept_frame_bytes = size_t{1} << 30;  // without a store: frames kept in memory
     // Journal and snapshots: every accepted frame and pose update is appended (durably)
     // here before it is applied and acknowledged. Null: the map lives in memory only and

@@ -21,6 +21,7 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
   r.map_defaults.decoder = decoder;
   r.map_defaults.journal = o.store != nullptr ? journal : nullptr;
   r.map_defaults.queue_capacity = o.queue_capacity;
+  r.map_defaults.worker_nice = o.ingest_nice;
   r.map_defaults.max_kept_frame_bytes = o.max_kept_frame_bytes;
   r.map_defaults.store = o.store;
   r.map_defaults.journal_retain_bytes = o.journal_retain_bytes;
@@ -35,9 +36,11 @@ MapRegistry::Options RegistryOptions(const MapService::Options& o, ThreadPool* p
 
 MapService::MapService(const Options& options)
     : options_(options),
-      pool_(std::make_unique<ThreadPool>(options.worker_threads)),
-      decoder_(std::make_unique<WorkQueue>(WorkQueue::Options{
-          .capacity = kDecoderCapacity, .threads = std::max(2, options.worker_threads)})),
+      pool_(std::make_unique<ThreadPool>(options.worker_threads, options.ingest_nice)),
+      decoder_(std::make_unique<WorkQueue>(
+          WorkQueue::Options{.capacity = kDecoderCapacity,
+                             .threads = std::max(2, options.worker_threads),
+                             .nice = options.ingest_nice})),
       journal_(std::make_unique<WorkQueue>(
           WorkQueue::Options{.capacity = kDecoderCapacity, .threads = 2})),
       registry_(RegistryOptions(options, pool_.get(), decoder_.get(), journal_.get())) {

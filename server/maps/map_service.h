@@ -37,7 +37,11 @@ namespace skimap::server {
 class MapService {
  public:
   struct Options {
-    int worker_threads = 2;             // integration threads shared by all maps (0 = inline)
+    int worker_threads = 2;  // integration threads shared by all maps (0 = inline)
+    // Niceness of the ingestion threads (integration pool, decoders, map workers; 0..19):
+    // when ingestion saturates the cores, queries (on the adapters' threads, niceness 0)
+    // still get most of a core. skimapd --ingest_nice.
+    int ingest_nice = 5;
     size_t queue_capacity = 64;         // queued writes per map
     size_t max_frame_bytes = 64 << 20;  // encoded depth + colour; larger: ResourceExhausted
     // Largest frame in pixels (intrinsics width x height); larger: ResourceExhausted

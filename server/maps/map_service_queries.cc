@@ -175,7 +175,7 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   constexpr float kMinFreeFrames = 1;
   v1::OccupancyGrid out;
   absl::Status status = (*map)->Read([&](const MapState& state) {
-    absl::StatusOr<OccupancyGrid> grid = ComputeOccupancyGrid(state.rgb, o);
+    absl::StatusOr<OccupancyGrid> grid = state.grid_cache.Compute(state.rgb, o);
     if (!grid.ok()) return RasterStatus(grid.status(), "occupancy grid", options_.max_reply_bytes);
     MarkCarvedCells(state.free, kMinFreeFrames, &*grid);
     FillGeometry(grid->geometry, state.frames, &out);

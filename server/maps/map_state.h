@@ -1,7 +1,7 @@
 // MapState: every volume of one map and its counters, as one value that the map's
 // pipeline writes and queries read under the map's snapshot lock (live_map.h).
 //
-//   map.Read([](const MapState& s) { return ComputeOccupancyGrid(s.rgb, options); });
+//   map.Read([](const MapState& s) { return s.grid_cache.Compute(s.rgb, options); });
 //
 // Volumes (DESIGN.md): `rgb` fed by every depth pixel; `free` the free-space evidence of
 // carving maps (empty otherwise); for maps with recognition (docs/recognition.md) `labels`
@@ -26,6 +26,7 @@
 #include "server/maps/map_config.h"
 #include "skimap/hypotheses_voxel.h"
 #include "skimap/label_voxel.h"
+#include "skimap/occupancy_grid_cache.h"
 #include "skimap/skimap.h"
 #include "skimap/thread_pool.h"
 
@@ -73,6 +74,9 @@ struct MapState {
   uint64_t journal_position = 0;  // last journal record applied (0: none, or no store)
   DirtyChunks dirty_rgb, dirty_free, dirty_labels, dirty_hypotheses, dirty_instances;
   RecognitionState recognition;
+  // The occupancy grid of `rgb` as last asked, recomputed per written column (queries
+  // reading the state fill it; it has its own lock).
+  mutable OccupancyGridCache grid_cache;
 
   // Calls fn(name, volume, dirty) for every volume, by the name it is stored under. Code
   // that must cover every volume (snapshots, reload, export) goes through here.

@@ -1,0 +1,70 @@
+// Ingestion threads run at MapService::Options::ingest_nice (skimapd --ingest_nice), so
+// that queries keep a core when frames saturate the machine (docs/operations.md,
+// "Scheduling and memory"); the primitives: ThreadPool and WorkQueue workers at their nice.
+#include <dirent.h>
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <future>
+#include <sstream>
+#include <string>
+
+#include "server/maps/map_service.h"
+#include "server/work_queue.h"
+#include "skimap/thread_pool.h"
+
+namespace skimap::server {
+namespace {
+
+int ThisThreadNice() { return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))); }
+
+// Threads of this process at niceness `nice` (field 19 of /proc/self/task/*/stat).
+int ThreadsAtNice(int nice) {
+  int count = 0;
+  DIR* dir = opendir("/proc/self/task");
+  if (dir == nullptr) return -1;
+  while (dirent* e = readdir(dir)) {
+    if (e->d_name[0] == '.') continue;
+    std::ifstream in(std::string("/proc/self/task/") + e->d_name + "/stat");
+    std::string stat((std::istreambuf_iterator<char>(in)), {});
+    // Fields after the command (in parentheses, may hold spaces): state is field 3.
+    std::istringstream rest(stat.substr(stat.rfind(')') + 2));
+    std::string field;
+    for (int i = 3; i <= 19 && rest >> field; ++i) {
+      if (i == 19 && std::stoi(field) == nice) ++count;
+    }
+  }
+  closedir(dir);
+  return count;
+}
+
+TEST(IngestPriorityTest, PoolAndQueueWorkersRunAtTheirNiceAndCallersDoNot) {
+  const int before = ThisThreadNice();
+  ThreadPool pool(1, 7);
+  std::promise<int> worker;
+  pool.ParallelFor(2, [&](size_t first, size_t) {
+    if (first == 0) worker.set_value(ThisThreadNice());  // piece 0 runs on the worker
+  });
+  EXPECT_EQ(worker.get_future().get(), 7);
+  EXPECT_EQ(ThisThreadNice(), before);
+  WorkQueue queue({.capacity = 4, .nice = 9});
+  EXPECT_EQ(queue.Run([] { return ThisThreadNice(); }), 9);
+  WorkQueue plain({.capacity = 4});
+  EXPECT_EQ(plain.Run([] { return ThisThreadNice(); }), before);
+}
+
+TEST(IngestPriorityTest, MapServiceRunsItsIngestionThreadsAtIngestNice) {
+  ASSERT_EQ(ThreadsAtNice(13), 0);
+  MapService service({.worker_threads = 2, .ingest_nice = 13});
+  v1::CreateMapRequest request;
+  request.set_map_id("m");
+  ASSERT_TRUE(service.CreateMap(request).ok());
+  // The pool's 2 workers, the 2 decoders and the map's worker.
+  EXPECT_EQ(ThreadsAtNice(13), 5);
+}
+
+}  // namespace
+}  // namespace skimap::server
