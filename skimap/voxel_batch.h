@@ -48,6 +48,26 @@ consteval bool ZeroBytesDefault() {
 }
 template <class V>
 inline constexpr bool kZeroBytesDefault = ZeroBytesDefault<V>();
+// std::allocator whose resize() leaves new elements uninitialised instead of zeroing them:
+// for the batch's buffers of trivially copyable items, every one of which is written before
+// it is read. A fresh batch then does not clear (and fault in) room for a whole image.
+template <class T>
+struct UninitializedAllocator : std::allocator<T> {
+  static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_destructible_v<T>);
+  template <class U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <class U>
+  UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U*) noexcept {}
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
 }  // namespace internal
 
 template <Voxel V>
@@ -202,10 +222,15 @@ class VoxelBatch {
   static size_t MergeSorted(const Item* items, const uint64_t* sorted, size_t count,
                             uint64_t index_mask, Item* out);
 
-  std::vector<Item> storage_;  // items are storage_[0 .. n_); the rest is room to grow
+  // Items: uninitialised room for trivially copyable voxels, value-initialised otherwise.
+  using Items = std::conditional_t<std::is_trivially_copyable_v<Item>,
+                                   std::vector<Item, internal::UninitializedAllocator<Item>>,
+                                   std::vector<Item>>;
+  Items storage_;  // items are storage_[0 .. n_); the rest is room to grow
   size_t n_ = 0;
-  std::vector<uint64_t> sort_a_, sort_b_;  // scratch, kept to avoid reallocation
-  std::vector<Item> merged_;
+  // Scratch, kept to avoid reallocation.
+  std::vector<uint64_t, internal::UninitializedAllocator<uint64_t>> sort_a_, sort_b_;
+  Items merged_;
   std::vector<RowScratch> row_scratch_;  // one per AddRows piece, kept
   size_t rejected_ = 0;
   bool finalized_ = true;
