@@ -80,9 +80,10 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
       const bool valid = d != 0, inside = (z >= min_depth) & (z <= max_depth);
       in_range += valid & inside;
       out_of_range += valid & !inside;
-      const bool has_key = grid.AxisToKeyBranchFree(z * (bx + xs[c]) + tx, ox, &keys.x[c]) &
-                           grid.AxisToKeyBranchFree(z * (by + ys[c]) + ty, oy, &keys.y[c]) &
-                           grid.AxisToKeyBranchFree(z * (bz + zs[c]) + tz, oz, &keys.z[c]);
+      // All three run (no short circuit): every key is written, branch-free.
+      const int has_key = int(grid.AxisToKeyBranchFree(z * (bx + xs[c]) + tx, ox, &keys.x[c])) &
+                          int(grid.AxisToKeyBranchFree(z * (by + ys[c]) + ty, oy, &keys.y[c])) &
+                          int(grid.AxisToKeyBranchFree(z * (bz + zs[c]) + tz, oz, &keys.z[c]));
       keys.state[c] =
           static_cast<uint8_t>((valid & inside) * (has_key ? Batch::kUse : Batch::kNoKey));
     }

@@ -1,5 +1,6 @@
 #include "perception/image_codec.h"
 
+#include <turbojpeg.h>
 #include <zstd.h>
 
 #include <bit>
@@ -7,8 +8,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <turbojpeg.h>
 
 #include "absl/strings/str_cat.h"
 #include "perception/image_header.h"

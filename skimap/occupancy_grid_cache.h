@@ -139,10 +139,11 @@ absl::StatusOr<OccupancyGrid> OccupancyGridCache::Compute(const SkiMap<V>& map,
   // The raster's columns, and the ones written since this cache saw them.
   std::vector<int32_t> xs;
   std::vector<Refresh> refresh;
+  const auto* cached = &columns_;  // (a lambda is analysed as if outside the lock)
   map.ForEachColumnVersion(x0, x1, [&](int32_t x, uint64_t version, auto y_blocks) {
     xs.push_back(x);
-    auto it = columns_.find(x);
-    if (it != columns_.end() && it->second.version == version) return;
+    auto it = cached->find(x);
+    if (it != cached->end() && it->second.version == version) return;
     refresh.push_back({x, version, Blocks(y_blocks.begin(), y_blocks.end())});
   });
   // The cached columns the map no longer has (emptied by removals) go.
