@@ -157,8 +157,11 @@ absl::StatusOr<HeightMap> ComputeHeightMap(const SkiMap<V>& map, const HeightMap
   return out;
 }
 
+namespace internal {
+// The checks and the all-unknown raster every occupancy grid starts from: InvalidArgument
+// for bad bands, MakeRasterGeometry's errors.
 template <Voxel V>
-absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
+absl::StatusOr<OccupancyGrid> UnknownOccupancyGrid(const SkiMap<V>& map,
                                                    const OccupancyGridOptions& opt) {
   if (!(opt.band_min_z <= opt.band_max_z) || !(opt.floor_min_z <= opt.band_min_z)) {
     return absl::InvalidArgumentError(
@@ -167,16 +170,25 @@ absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
   absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
       map.grid(), opt.region, opt.region ? std::nullopt : map.FootprintBounds(), opt.max_cells);
   if (!geo.ok()) return geo.status();
-  OccupancyGrid out{
+  return OccupancyGrid{
       *geo, std::vector<int8_t>(size_t(geo->width) * size_t(geo->height), OccupancyGrid::kUnknown)};
-  if (out.cells.empty()) return out;
+}
+}  // namespace internal
+
+template <Voxel V>
+absl::StatusOr<OccupancyGrid> ComputeOccupancyGrid(const SkiMap<V>& map,
+                                                   const OccupancyGridOptions& opt) {
+  absl::StatusOr<OccupancyGrid> grid = internal::UnknownOccupancyGrid(map, opt);
+  if (!grid.ok() || grid->cells.empty()) return grid;
+  OccupancyGrid& out = *grid;
+  const RasterGeometry* geo = &out.geometry;
   const internal::OccupancyBands bands = internal::MakeOccupancyBands(map.grid(), opt);
   internal::ForEachRasterColumn(
       map, *geo, opt.pool, [&](int32_t kx, int32_t ky, const typename SkiMap<V>::ZColumn& column) {
         const size_t i = size_t(ky - geo->key_y0) * geo->width + (kx - geo->key_x0);
         out.cells[i] = internal::ColumnOccupancy<V>(column, bands);
       });
-  return out;
+  return grid;
 }
 
 }  // namespace skimap

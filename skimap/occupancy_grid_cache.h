@@ -116,16 +116,10 @@ void OccupancyGridCache::Recompute(const SkiMap<V>& map, const internal::Occupan
 template <Voxel V>
 absl::StatusOr<OccupancyGrid> OccupancyGridCache::Compute(const SkiMap<V>& map,
                                                           const OccupancyGridOptions& opt) {
-  if (!(opt.band_min_z <= opt.band_max_z) || !(opt.floor_min_z <= opt.band_min_z)) {
-    return absl::InvalidArgumentError(
-        "z band: need floor_min_z <= band_min_z <= band_max_z (all finite)");
-  }
-  absl::StatusOr<RasterGeometry> geo = MakeRasterGeometry(
-      map.grid(), opt.region, opt.region ? std::nullopt : map.FootprintBounds(), opt.max_cells);
-  if (!geo.ok()) return geo.status();
-  OccupancyGrid out{
-      *geo, std::vector<int8_t>(size_t(geo->width) * size_t(geo->height), OccupancyGrid::kUnknown)};
-  if (out.cells.empty()) return out;
+  absl::StatusOr<OccupancyGrid> grid = internal::UnknownOccupancyGrid(map, opt);
+  if (!grid.ok() || grid->cells.empty()) return grid;
+  OccupancyGrid& out = *grid;
+  const RasterGeometry* geo = &out.geometry;
   const internal::OccupancyBands bands = internal::MakeOccupancyBands(map.grid(), opt);
   const int32_t x0 = geo->key_x0, x1 = geo->key_x0 + geo->width - 1;
   const int64_t y_lo = geo->key_y0, y_hi = int64_t(geo->key_y0) + geo->height - 1;
@@ -220,7 +214,7 @@ absl::StatusOr<OccupancyGrid> OccupancyGridCache::Compute(const SkiMap<V>& map,
       }
     }
   }
-  return out;
+  return grid;
 }
 
 }  // namespace skimap
