@@ -4,6 +4,7 @@
 
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
+#include "grpc/health/v1/health.grpc.pb.h"
 
 namespace skimap::client {
 
@@ -106,6 +107,22 @@ absl::Status MapClient::WaitForServer(absl::Duration timeout) {
     return absl::OkStatus();
   }
   return absl::UnavailableError("server did not answer in time");
+}
+
+absl::Status MapClient::CheckHealth() {
+  std::unique_ptr<grpc::health::v1::Health::Stub> health =
+      grpc::health::v1::Health::NewStub(channel_);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx);
+  grpc::health::v1::HealthCheckResponse response;
+  const grpc::Status s = health->Check(&ctx, grpc::health::v1::HealthCheckRequest(), &response);
+  if (!s.ok()) return FromGrpcStatus(s);
+  if (response.status() != grpc::health::v1::HealthCheckResponse::SERVING) {
+    return absl::UnavailableError(
+        absl::StrCat("server is ",
+                     grpc::health::v1::HealthCheckResponse::ServingStatus_Name(response.status())));
+  }
+  return absl::OkStatus();
 }
 
 void MapClient::SetDeadline(grpc::ClientContext* ctx) const {

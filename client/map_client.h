@@ -56,6 +56,9 @@ class MapClient {
   }
   // Waits up to `timeout` for the channel to connect; Unavailable otherwise.
   absl::Status WaitForServer(absl::Duration timeout);
+  // grpc.health.v1.Health/Check of the whole server (no token needed): OK when it answers
+  // SERVING, Unavailable naming the status it answered otherwise, or the call's error.
+  absl::Status CheckHealth();
 
   absl::StatusOr<v1::Map> CreateMap(const v1::CreateMapRequest& request);
   absl::StatusOr<v1::Map> GetMap(const std::string& name);

@@ -115,6 +115,14 @@ int Nodes(MapClient& client) {
   return 0;
 }
 
+// `skimap health`: SERVING and exit 0, or the reason and exit 1 (container health checks:
+// the standard gRPC health service answers without a token).
+int Health(MapClient& client) {
+  if (absl::Status s = client.CheckHealth(); !s.ok()) return Fail(s);
+  std::printf("SERVING\n");
+  return 0;
+}
+
 int Maps(MapClient& client, const std::vector<std::string>& args) {
   const std::string verb = args.size() > 2 ? args[2] : "ls";
   if (verb == "ls") {
@@ -238,6 +246,7 @@ int main(int argc, char** argv) {
       "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
       "[--detector=ORB]|build|classifier\n"
       "       skimap nodes\n"
+      "       skimap health\n"
       "       skimap instances --map=ID [--box=X0,Y0,Z0,X1,Y1,Z1|--sphere=X,Y,Z,R] "
       "[--objects=1,5] [--min_score=S] [--json]\n"
       "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
@@ -266,6 +275,7 @@ int main(int argc, char** argv) {
   const std::string& command = args[1];
   if (command == "maps") return Maps(*client, args);
   if (command == "nodes") return Nodes(*client);
+  if (command == "health") return Health(*client);
   if (command == "import") return Import(*client, args);
   if (command == "eval") {
     if (args.size() < 3) return Fail(absl::InvalidArgumentError("eval needs a DATASET path"));

@@ -15,6 +15,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
 #include "tests/common/free_port.h"
+#include "tests/common/spawn.h"
 #include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
@@ -26,14 +27,9 @@ TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
           .string();
   std::filesystem::create_directories(dir);
   const std::string address = absl::StrCat("127.0.0.1:", FreePort());
-  const pid_t pid = fork();
+  const pid_t pid = SpawnProcess({SKIMAPD_PATH, "--address=" + address, "--data_dir=" + dir + "/d",
+                                  "--worker_threads=1", "--http_address="});
   ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    const std::string addr_flag = "--address=" + address, dir_flag = "--data_dir=" + dir + "/d";
-    execl(SKIMAPD_PATH, SKIMAPD_PATH, addr_flag.c_str(), dir_flag.c_str(), "--worker_threads=1",
-          "--http_address=", static_cast<char*>(nullptr));
-    _exit(127);
-  }
   std::unique_ptr<client::MapClient> client = client::MapClient::Connect(address);
   ASSERT_TRUE(client->WaitForServer(absl::Seconds(20)).ok());
   v1::CreateMapRequest create;

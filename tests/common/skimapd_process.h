@@ -14,7 +14,6 @@
 #ifndef TESTS_COMMON_SKIMAPD_PROCESS_H_
 #define TESTS_COMMON_SKIMAPD_PROCESS_H_
 
-#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -29,6 +28,7 @@
 #include "absl/time/clock.h"
 #include "client/map_client.h"
 #include "tests/common/free_port.h"
+#include "tests/common/spawn.h"
 
 namespace skimap::testing {
 
@@ -71,26 +71,14 @@ class SkimapdProcess {
                                      "--data_dir=" + data_dir_ + "/data",
                                      absl::StrCat("--http_address=127.0.0.1:", http_port_)};
     args.insert(args.end(), flags_.begin(), flags_.end());
-    pid_ = fork();
-    if (pid_ < 0) return absl::InternalError("fork failed");
-    if (pid_ == 0) {
-      if (!stderr_path_.empty()) {
-        const int fd = open(stderr_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-        if (fd >= 0) dup2(fd, 2);
-      }
-      if (!log_file_.empty()) {
-        const int fd = open(log_file_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0600);
-        if (fd >= 0) {
-          dup2(fd, 1);
-          dup2(fd, 2);
-        }
-      }
-      std::vector<char*> argv;
-      for (std::string& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      execv(binary_.c_str(), argv.data());
-      _exit(127);
+    SpawnOptions redirect;
+    if (!log_file_.empty()) {
+      redirect = {.stdout_path = log_file_, .stderr_path = log_file_};
+    } else {
+      redirect.stderr_path = stderr_path_;
     }
+    pid_ = SpawnProcess(args, redirect);
+    if (pid_ < 0) return absl::InternalError(absl::StrCat("cannot start ", binary_));
     // Waits in short steps so a process that refuses to start fails the call at once.
     auto client = client::MapClient::Connect(address_, {.connection = connection_});
     const absl::Time deadline = absl::Now() + absl::Seconds(20);

@@ -24,6 +24,7 @@
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "grpc/reflection/v1alpha/reflection.grpc.pb.h"
 #include "tests/common/free_port.h"
+#include "tests/common/spawn.h"
 
 namespace skimap::testing {
 namespace {
@@ -36,14 +37,9 @@ class ReflectionTest : public ::testing::Test {
   void SetUp() override {
     address_ = "127.0.0.1:" + std::to_string(FreePort());
     dir_ = std::filesystem::temp_directory_path() / ("skimap_refl_" + std::to_string(getpid()));
-    pid_ = fork();
+    pid_ = SpawnProcess({SKIMAPD_PATH, "--address=" + address_, "--data_dir=" + dir_.string(),
+                         "--worker_threads=1", "--http_address="});
     ASSERT_GE(pid_, 0);
-    if (pid_ == 0) {
-      const std::string a = "--address=" + address_, d = "--data_dir=" + dir_.string();
-      execl(SKIMAPD_PATH, SKIMAPD_PATH, a.c_str(), d.c_str(), "--worker_threads=1",
-            "--http_address=", static_cast<char*>(nullptr));
-      _exit(127);
-    }
     channel_ = grpc::CreateChannel(address_, grpc::InsecureChannelCredentials());
     ASSERT_TRUE(
         channel_->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(20)));

@@ -12,20 +12,15 @@
 
 #include "absl/strings/str_cat.h"
 #include "tests/common/free_port.h"
+#include "tests/common/spawn.h"
 #include "tests/objects/sim_data.h"
 
 namespace skimap::testing {
 namespace {
 
 pid_t StartSkimapd(const std::string& address, const std::string& data_dir) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const std::string a = "--address=" + address, d = "--data_dir=" + data_dir;
-    execl(SKIMAPD_PATH, SKIMAPD_PATH, a.c_str(), d.c_str(), "--worker_threads=1",
-          "--http_address=", static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  return pid;
+  return SpawnProcess({SKIMAPD_PATH, "--address=" + address, "--data_dir=" + data_dir,
+                       "--worker_threads=1", "--http_address="});
 }
 
 void Stop(pid_t pid) {

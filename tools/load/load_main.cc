@@ -12,9 +12,11 @@
 // the run, RSS grows faster than the maps' own memory by more than
 // --max_rss_slope_mb_per_min (a leak: memory that no map accounts for); 2 on bad flags.
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <httplib.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <spawn.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -151,18 +153,20 @@ int Main() {
         "--data_dir=" + data_dir + "/data",
         absl::StrCat("--worker_threads=", absl::GetFlag(FLAGS_worker_threads)),
         "--web_root="};
-    pid = fork();
-    if (pid == 0) {
-      const std::string log = data_dir + "/skimapd.log";
-      if (std::freopen(log.c_str(), "w", stdout) == nullptr ||
-          std::freopen(log.c_str(), "a", stderr) == nullptr) {
-        _exit(126);
-      }
-      std::vector<char*> argv;
-      for (std::string& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      execv(argv[0], argv.data());
-      _exit(127);
+    // posix_spawn, not fork: nothing may allocate in a child of a threaded process.
+    const std::string log = data_dir + "/skimapd.log";
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (spawned != 0) {
+      std::fprintf(stderr, "skimap-load: cannot start %s\n", argv[0]);
+      return 1;
     }
   }
   auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());

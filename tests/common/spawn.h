@@ -1,0 +1,57 @@
+// Starting a child process from a test that has threads running (gRPC's, streams').
+//
+// fork() copies only the calling thread: a lock another thread held at that moment (the
+// allocator's, ASan's) stays held forever in the child, so a child that allocates before
+// exec can hang. SpawnProcess therefore uses posix_spawn only (glibc's does not allocate
+// in the child): every string and the redirections are prepared in the parent.
+//
+//   pid_t pid = SpawnProcess({SKIMAPD_PATH, "--address=127.0.0.1:5000"});
+//
+// Thread safety: a pure function.
+#ifndef TESTS_COMMON_SPAWN_H_
+#define TESTS_COMMON_SPAWN_H_
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+extern char** environ;
+
+namespace skimap::testing {
+
+struct SpawnOptions {
+  std::string stdout_path;  // appended to (created 0600); "" = inherited
+  std::string stderr_path;  // appended to (created 0600); "" = inherited; may equal stdout_path
+};
+
+// Starts args[0] (a path, PATH is not searched) with argv `args` and this environment.
+// The child's pid, or -1 when it could not be started.
+inline pid_t SpawnProcess(const std::vector<std::string>& args, const SpawnOptions& options = {}) {
+  std::vector<char*> argv;
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  constexpr int kFlags = O_WRONLY | O_CREAT | O_APPEND;
+  if (!options.stdout_path.empty()) {
+    posix_spawn_file_actions_addopen(&actions, 1, options.stdout_path.c_str(), kFlags, 0600);
+  }
+  if (!options.stderr_path.empty()) {
+    if (options.stderr_path == options.stdout_path) {
+      posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    } else {
+      posix_spawn_file_actions_addopen(&actions, 2, options.stderr_path.c_str(), kFlags, 0600);
+    }
+  }
+  pid_t pid = -1;
+  const int error = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  return error == 0 ? pid : -1;
+}
+
+}  // namespace skimap::testing
+
+#endif  // TESTS_COMMON_SPAWN_H_
