@@ -3,7 +3,7 @@
 # already there. Usage: scripts/deps.sh [--bench]   (--bench adds the peer libraries that
 # only the side-by-side benchmarks need: OctoMap, OpenVDB, nanoflann, PCL, Open3D).
 set -euo pipefail
-pkgs=(build-essential cmake ninja-build ccache pkg-config clang-format
+pkgs=(build-essential cmake ninja-build ccache lld pkg-config clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libeigen3-dev libopencv-dev libsqlite3-dev libzstd-dev nlohmann-json3-dev libcpp-httplib-dev
   libturbojpeg0-dev libssl-dev openssl libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto

@@ -13,7 +13,7 @@ shift 2 2>/dev/null || shift $#
 targets=("$@")
 if ((${#targets[@]} == 0)); then
   targets=(image_codec frame_decode map_requests export_reader skimap_file chunk_codec
-    random_forest object_database)
+    random_forest object_database rest_json)
 fi
 fuzz=build/asan/tests/fuzz
 for t in "${targets[@]}"; do
