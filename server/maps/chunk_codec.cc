@@ -74,6 +74,13 @@ absl::StatusOr<OpenedChunk> OpenChunk(std::string_view blob, ChunkContent conten
     if (payload.size() != raw_size) return absl::DataLossError("chunk: raw size mismatch");
     out.raw.assign(payload);
   } else if (codec == kCodecZstd) {
+    // A zstd block yields at most 128 KiB from at least 4 bytes (an RLE block), so a payload
+    // cannot expand beyond that: a larger claim is refused before anything is allocated
+    // (a few corrupt bytes must not cost hundreds of megabytes).
+    if (raw_size / (128u << 10) > payload.size() / 4 + 1 ||
+        ZSTD_getFrameContentSize(payload.data(), payload.size()) != raw_size) {
+      return absl::DataLossError("chunk: zstd payload does not match its raw size");
+    }
     out.raw.resize(raw_size);
     const size_t n = ZSTD_decompress(out.raw.data(), raw_size, payload.data(), payload.size());
     if (ZSTD_isError(n) || n != raw_size) return absl::DataLossError("chunk: zstd payload corrupt");

@@ -66,6 +66,23 @@ TEST(ChunkCodecTest, EveryCorruptionIsAnErrorNeverACrash) {
   }
 }
 
+TEST(ChunkCodecTest, AZstdChunkClaimingMoreThanItsPayloadCanHoldIsRefused) {
+  const ChunkCoord c{0, 0, 0};
+  std::string blob = EncodeVoxelChunk<RGBWeightedVoxel>(c, SomeVoxels(c, 500));
+  ASSERT_EQ(blob[6], 1) << "expected a zstd chunk";
+  // raw_size (bytes 16-19, little endian) claims 200 MiB; the checksum is made to match, as
+  // a corrupt or hostile file would.
+  const uint32_t claim = 200u << 20;
+  for (int i = 0; i < 4; ++i) blob[16 + i] = static_cast<char>(claim >> (8 * i));
+  std::string body = blob.substr(0, blob.size() - 4);
+  const uint32_t crc = Crc32c(body);
+  for (int i = 0; i < 4; ++i) body.push_back(static_cast<char>(crc >> (8 * i)));
+  VoxelBatch<RGBWeightedVoxel> batch;
+  const absl::Status s = DecodeVoxelChunk<RGBWeightedVoxel>(c, body, &batch);
+  EXPECT_EQ(s.code(), absl::StatusCode::kDataLoss) << s;
+  EXPECT_NE(s.message().find("zstd payload does not match its raw size"), std::string::npos) << s;
+}
+
 TEST(ChunkCodecTest, ANewerFormatVersionIsRefusedByName) {
   std::string blob = EncodeVoxelChunk<RGBWeightedVoxel>({0, 0, 0}, SomeVoxels({0, 0, 0}, 10));
   blob[4] = 2;  // version 2, little endian
