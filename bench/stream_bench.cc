@@ -24,7 +24,10 @@
 // 4. A 20 m x 20 m GetOccupancyGrid while two streams ingest into the same map at full
 //    speed: the map is first filled with 400 frames on a 1 m lattice over the region, then
 //    two streams send frames of new space (the lattice again, 3 m higher per pass) while
-//    --queries grid queries run 5 ms apart; p50/p99 and the frames/s meanwhile.
+//    --queries rounds of grid queries run 5 ms apart, each round one with raw data and one
+//    with zstd data (data_encoding; the client library decompresses it, inside the timed
+//    call; both answer the same grid, checked first); p50/p99 per encoding, the bytes on the
+//    wire, and the frames/s meanwhile.
 //
 // Runs 2 and 3 repeat --reps times, journal off and on interleaved; each cell is the best
 // repetition (the shared machine's noise only slows runs down).
@@ -357,11 +360,26 @@ void Main() {
     request.mutable_region()->set_min_y(-10);
     request.mutable_region()->set_max_x(10);
     request.mutable_region()->set_max_y(10);
-    std::vector<double> idle;
+    v1::GetOccupancyGridRequest zstd_request = request;
+    zstd_request.set_data_encoding(v1::GRID_ENCODING_ZSTD);
+    const v1::GetOccupancyGridRequest* const requests[2] = {&request, &zstd_request};
+    const char* const encoding_names[2] = {"raw", "zstd"};
+    // Both encodings answer the same grid (the client library decompresses zstd).
+    {
+      auto raw = s.client->GetOccupancyGrid(request);
+      auto packed = s.client->GetOccupancyGrid(zstd_request);
+      if (!raw.ok() || !packed.ok()) Die("grid query failed");
+      if (raw->data() != packed->data()) Die("the zstd grid differs from the raw one");
+    }
+    std::vector<double> idle[2];
     for (int q = 0; q < absl::GetFlag(FLAGS_idle_queries); ++q) {
-      const Clock::time_point t0 = Clock::now();
-      if (auto g = s.client->GetOccupancyGrid(request); !g.ok()) Die(g.status().ToString());
-      idle.push_back(Ms(Clock::now() - t0));
+      for (int e = 0; e < 2; ++e) {
+        const Clock::time_point t0 = Clock::now();
+        if (auto g = s.client->GetOccupancyGrid(*requests[e]); !g.ok()) {
+          Die(g.status().ToString());
+        }
+        idle[e].push_back(Ms(Clock::now() - t0));
+      }
     }
     // The same query inside the server (no gRPC): the grid's own cost, cached and not.
     std::vector<double> inside;
@@ -389,47 +407,54 @@ void Main() {
                              &stop);
       });
     }
-    std::vector<double> ms;
-    size_t cells = 0, occupied = 0, known = 0;
-    std::vector<double> in_server;
+    // Each round: the grid over gRPC raw and zstd (in turns first), and every other round
+    // inside the server (no gRPC: how much of the time is the grid's, and zstd's).
+    std::vector<double> ms[2], in_server[2];
+    size_t cells = 0, occupied = 0, known = 0, wire_bytes[2] = {0, 0};
     for (int q = 0; q < absl::GetFlag(FLAGS_queries); ++q) {
-      Clock::time_point t0 = Clock::now();
-      // Every other query inside the server too (no gRPC): how much of the time is the grid's.
       if (q % 2 == 1) {
-        if (auto g = s.server->maps().GetOccupancyGrid(request); !g.ok())
-          Die(g.status().ToString());
-        in_server.push_back(Ms(Clock::now() - t0));
+        const int e = (q / 2) % 2;
+        const Clock::time_point t0 = Clock::now();
+        absl::StatusOr<v1::OccupancyGrid> g = s.server->maps().GetOccupancyGrid(*requests[e]);
+        in_server[e].push_back(Ms(Clock::now() - t0));
+        if (!g.ok()) Die(g.status().ToString());
+        wire_bytes[e] = g->data().size();
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
-        t0 = Clock::now();
       }
-      absl::StatusOr<v1::OccupancyGrid> grid = s.client->GetOccupancyGrid(request);
-      ms.push_back(Ms(Clock::now() - t0));
-      if (!grid.ok()) Die(grid.status().ToString());
-      cells = grid->data().size();
-      occupied = size_t(std::count(grid->data().begin(), grid->data().end(), char(100)));
-      known = cells - size_t(std::count(grid->data().begin(), grid->data().end(), char(-1)));
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      for (int k = 0; k < 2; ++k) {
+        const int e = (q + k) % 2;
+        const Clock::time_point t0 = Clock::now();
+        absl::StatusOr<v1::OccupancyGrid> grid = s.client->GetOccupancyGrid(*requests[e]);
+        ms[e].push_back(Ms(Clock::now() - t0));
+        if (!grid.ok()) Die(grid.status().ToString());
+        cells = grid->data().size();
+        occupied = size_t(std::count(grid->data().begin(), grid->data().end(), char(100)));
+        known = cells - size_t(std::count(grid->data().begin(), grid->data().end(), char(-1)));
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
     }
     stop = true;
     for (std::thread& t : streams) t.join();
-    std::printf(
-        "under ingestion, inside the server (no gRPC): p50 %.1f ms, p90 %.1f, p99 %.1f, max %.1f; "
-        "over gRPC p90 %.1f\n",
-        Percentile(in_server, 0.5), Percentile(in_server, 0.9), Percentile(in_server, 0.99),
-        Percentile(in_server, 1.0), Percentile(ms, 0.9));
     const double seconds = Seconds(Clock::now() - start);
     const int ingested = runs[0].acked + runs[1].acked;
     absl::StatusOr<v1::Map> grid_map = s.client->GetMap("maps/grid");
     std::printf(
         "\n### 20 m x 20 m occupancy grid at %.0f cm while two streams ingest into the map\n\n"
-        "| grid cells | known | occupied | map voxels at the end | queries | p50 ms | p99 ms | "
-        "max ms | ingestion meanwhile, frames/s | idle p50 / p99 ms |\n"
-        "|---|---|---|---|---|---|---|---|---|---|\n"
-        "| %zu | %zu | %zu | %llu | %zu | %.1f | %.1f | %.1f | %.1f | %.1f / %.1f |\n",
+        "%zu cells (%zu known, %zu occupied), %llu map voxels at the end, ingestion meanwhile "
+        "%.1f frames/s (both streams)\n\n"
+        "| data_encoding | bytes on the wire | queries | gRPC p50 ms | p99 | max | inside the "
+        "server p50 / p99 ms | idle gRPC p50 / p99 ms |\n"
+        "|---|---|---|---|---|---|---|---|\n",
         res * 100, cells, known, occupied,
         grid_map.ok() ? static_cast<unsigned long long>(grid_map->stats().voxels()) : 0ULL,
-        ms.size(), Percentile(ms, 0.5), Percentile(ms, 0.99), Percentile(ms, 1.0),
-        ingested / seconds, Percentile(idle, 0.5), Percentile(idle, 0.99));
+        ingested / seconds);
+    for (int e = 0; e < 2; ++e) {
+      std::printf("| %s | %zu | %zu | %.1f | %.1f | %.1f | %.1f / %.1f | %.1f / %.1f |\n",
+                  encoding_names[e], wire_bytes[e], ms[e].size(), Percentile(ms[e], 0.5),
+                  Percentile(ms[e], 0.99), Percentile(ms[e], 1.0), Percentile(in_server[e], 0.5),
+                  Percentile(in_server[e], 0.99), Percentile(idle[e], 0.5),
+                  Percentile(idle[e], 0.99));
+    }
   }
   std::filesystem::remove_all(dir);
 }

@@ -1,5 +1,7 @@
 #include "client/map_client.h"
 
+#include <zstd.h>
+
 #include <chrono>
 
 #include "absl/strings/cord.h"
@@ -177,7 +179,26 @@ std::unique_ptr<FrameStream> MapClient::OpenFrameStream(const FrameStream::Optio
 
 absl::StatusOr<v1::OccupancyGrid> MapClient::GetOccupancyGrid(
     const v1::GetOccupancyGridRequest& request) {
-  return Call(&v1::MapService::Stub::GetOccupancyGrid, request.map(), request);
+  absl::StatusOr<v1::OccupancyGrid> grid =
+      Call(&v1::MapService::Stub::GetOccupancyGrid, request.map(), request);
+  if (!grid.ok() || grid->data_encoding() == v1::GRID_ENCODING_RAW) return grid;
+  if (grid->data_encoding() != v1::GRID_ENCODING_ZSTD) {
+    return absl::DataLossError(
+        absl::StrCat("occupancy grid: unknown data_encoding ", grid->data_encoding()));
+  }
+  const size_t cells = size_t(grid->width()) * grid->height();
+  const std::string& packed = grid->data();
+  if (ZSTD_getFrameContentSize(packed.data(), packed.size()) != cells) {
+    return absl::DataLossError("occupancy grid: the zstd data does not hold width*height cells");
+  }
+  std::string raw(cells, '\0');
+  const size_t n = ZSTD_decompress(raw.data(), raw.size(), packed.data(), packed.size());
+  if (ZSTD_isError(n) || n != cells) {
+    return absl::DataLossError("occupancy grid: the zstd data does not decode");
+  }
+  grid->set_data(std::move(raw));
+  grid->set_data_encoding(v1::GRID_ENCODING_RAW);
+  return grid;
 }
 
 absl::StatusOr<v1::HeightMap> MapClient::GetHeightMap(const v1::GetHeightMapRequest& request) {

@@ -74,6 +74,8 @@ class MapClient {
   std::unique_ptr<FrameStream> OpenFrameStream(const FrameStream::Options& options,
                                                const std::string& map = "");
 
+  // The grid with raw data (width*height bytes), whatever data_encoding `r` asked the
+  // server for (GRID_ENCODING_ZSTD is decompressed here; DataLoss if it does not decode).
   absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(const v1::GetOccupancyGridRequest& r);
   absl::StatusOr<v1::HeightMap> GetHeightMap(const v1::GetHeightMapRequest& request);
   absl::StatusOr<v1::GetVoxelsResponse> GetVoxels(const v1::GetVoxelsRequest& request);

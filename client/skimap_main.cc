@@ -160,6 +160,7 @@ int Maps(MapClient& client, const std::vector<std::string>& args) {
 int Grid(MapClient& client) {
   v1::GetOccupancyGridRequest request;
   request.set_map(MapNameFlag());
+  request.set_data_encoding(v1::GRID_ENCODING_ZSTD);  // fewer bytes on the wire
   absl::StatusOr<v1::OccupancyGrid> grid = client.GetOccupancyGrid(request);
   if (!grid.ok()) return Fail(grid.status());
   const std::string out = absl::GetFlag(FLAGS_o);

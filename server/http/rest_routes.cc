@@ -98,6 +98,10 @@ absl::StatusOr<RestReply> OccupancyGrid(const MapService& maps, const RestCall& 
   if (!format.ok()) return format.status();
   auto request = ParseRequest<v1::GetOccupancyGridRequest>(call, Body::kNone, kMap, {"format"});
   if (!request.ok()) return request.status();
+  if (*format != RasterFormat::kJson && request->data_encoding() != v1::GRID_ENCODING_RAW) {
+    return absl::InvalidArgumentError(
+        "data_encoding: only with format=json (images are PNG or PGM)");
+  }
   absl::StatusOr<v1::OccupancyGrid> grid = maps.GetOccupancyGrid(*request);
   if (!grid.ok()) return grid.status();
   if (*format == RasterFormat::kJson) return JsonReply(*grid);

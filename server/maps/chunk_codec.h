@@ -18,6 +18,7 @@
 #ifndef SERVER_MAPS_CHUNK_CODEC_H_
 #define SERVER_MAPS_CHUNK_CODEC_H_
 
+#include <bitset>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -103,12 +104,20 @@ absl::Status DecodeVoxelChunk(const ChunkCoord& c, std::string_view blob, VoxelB
   if (raw.size() < 3 * n) return absl::DataLossError("chunk: keys truncated");
   const KeyBox box = ChunkBox(c);
   Decoder d(raw.substr(3 * n));
+  // Keys are unique (as written): a repeated one would be merged with the first, into a
+  // voxel the chunk does not hold (and maybe not a valid one: weights summing to infinity).
+  std::bitset<size_t{1} << (3 * kChunkShift)> seen;
   for (size_t i = 0; i < n; ++i) {
     const auto lx = static_cast<uint8_t>(raw[i]), ly = static_cast<uint8_t>(raw[n + i]),
                lz = static_cast<uint8_t>(raw[2 * n + i]);
     if (lx >> kChunkShift || ly >> kChunkShift || lz >> kChunkShift) {
       return absl::DataLossError(absl::StrCat("chunk: voxel ", i, " key outside its chunk"));
     }
+    const size_t local = (size_t{lx} << (2 * kChunkShift)) | (size_t{ly} << kChunkShift) | lz;
+    if (seen.test(local)) {
+      return absl::DataLossError(absl::StrCat("chunk: voxel ", i, " repeats a key"));
+    }
+    seen.set(local);
     V v;
     if (!V::Decode(d, &v))
       return absl::DataLossError(absl::StrCat("chunk: voxel ", i, " truncated"));

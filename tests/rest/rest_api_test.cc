@@ -173,6 +173,15 @@ TEST_F(RestApiTest, OccupancyGridAsJsonPgmAndPng) {
     ASSERT_EQ(image.rows, h);
     EXPECT_EQ(cv::countNonZero(image != expected), 0);
   }
+  // zstd data in JSON (the same grid, fewer bytes); images are refused it, naming the field.
+  const auto packed =
+      ParseJson<v1::OccupancyGrid>(http().Get(path + "&dataEncoding=GRID_ENCODING_ZSTD"));
+  EXPECT_EQ(packed.data_encoding(), v1::GRID_ENCODING_ZSTD);
+  EXPECT_LT(packed.data().size(), grid.data().size());
+  httplib::Result refused = http().Get(path + "&format=png&dataEncoding=GRID_ENCODING_ZSTD");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 400);
+  EXPECT_THAT(refused->body, HasSubstr("data_encoding"));
 }
 
 TEST_F(RestApiTest, HeightMapAsJsonAndAsA16BitPng) {

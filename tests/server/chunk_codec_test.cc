@@ -83,6 +83,18 @@ TEST(ChunkCodecTest, AZstdChunkClaimingMoreThanItsPayloadCanHoldIsRefused) {
   EXPECT_NE(s.message().find("zstd payload does not match its raw size"), std::string::npos) << s;
 }
 
+TEST(ChunkCodecTest, AChunkRepeatingAKeyIsRefused) {
+  // Found by fuzzing: two huge weights at one key decoded, then merged into an infinite one.
+  const ChunkCoord c{1, 0, 0};
+  auto voxels = SomeVoxels(c, 40);
+  voxels.push_back(voxels[7]);
+  VoxelBatch<RGBWeightedVoxel> batch;
+  const absl::Status s =
+      DecodeVoxelChunk<RGBWeightedVoxel>(c, EncodeVoxelChunk<RGBWeightedVoxel>(c, voxels), &batch);
+  EXPECT_EQ(s.code(), absl::StatusCode::kDataLoss) << s;
+  EXPECT_NE(s.message().find("voxel 40 repeats a key"), std::string::npos) << s;
+}
+
 TEST(ChunkCodecTest, ANewerFormatVersionIsRefusedByName) {
   std::string blob = EncodeVoxelChunk<RGBWeightedVoxel>({0, 0, 0}, SomeVoxels({0, 0, 0}, 10));
   blob[4] = 2;  // version 2, little endian

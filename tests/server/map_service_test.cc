@@ -1,4 +1,6 @@
 // Integration tests over real gRPC (localhost socket): maps, frames, queries.
+#include <zstd.h>
+
 #include <cmath>
 
 #include "tests/server/server_fixture.h"
@@ -95,6 +97,45 @@ TEST_F(ServerTest, OccupancyGridMarksTheBoxAndTheVisibleFloor) {
   };
   EXPECT_EQ(cell_at(0.0, 0.6), 0) << "visible floor is free";
   EXPECT_EQ(cell_at(1.2, 0.0), -1) << "the box's shadow is unknown";
+}
+
+TEST_F(ServerTest, AZstdGridIsTheRawGridCompressed) {
+  CreateMap("packed");
+  ASSERT_TRUE(client_->IntegrateFrame(MakeFrame("maps/packed", 1, DefaultView())).ok());
+  v1::GetOccupancyGridRequest request;
+  request.set_map("maps/packed");
+  request.mutable_region()->set_min_x(-3.0);
+  request.mutable_region()->set_min_y(-3.0);
+  request.mutable_region()->set_max_x(3.0);
+  request.mutable_region()->set_max_y(3.0);
+  auto raw = client_->GetOccupancyGrid(request);
+  ASSERT_TRUE(raw.ok()) << raw.status();
+  EXPECT_EQ(raw->data_encoding(), v1::GRID_ENCODING_RAW);
+  const size_t cells = size_t(raw->width()) * raw->height();
+  ASSERT_EQ(raw->data().size(), cells);
+
+  // On the wire (the stub, not the client library): one zstd frame of the same cells.
+  request.set_data_encoding(v1::GRID_ENCODING_ZSTD);
+  grpc::ClientContext ctx;
+  v1::OccupancyGrid wire;
+  ASSERT_TRUE(client_->stub().GetOccupancyGrid(&ctx, request, &wire).ok());
+  EXPECT_EQ(wire.data_encoding(), v1::GRID_ENCODING_ZSTD);
+  EXPECT_EQ(wire.width(), raw->width());
+  EXPECT_LT(wire.data().size(), cells / 10) << "a mostly unknown grid compresses well";
+  std::string unpacked(cells, '\0');
+  ASSERT_EQ(ZSTD_decompress(unpacked.data(), cells, wire.data().data(), wire.data().size()), cells);
+  EXPECT_EQ(unpacked, raw->data());
+
+  // The client library hands back raw data.
+  auto through_library = client_->GetOccupancyGrid(request);
+  ASSERT_TRUE(through_library.ok()) << through_library.status();
+  EXPECT_EQ(through_library->data_encoding(), v1::GRID_ENCODING_RAW);
+  EXPECT_EQ(through_library->data(), raw->data());
+
+  request.set_data_encoding(static_cast<v1::GridEncoding>(7));
+  auto bad = client_->GetOccupancyGrid(request);
+  EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(bad.status().message(), HasSubstr("data_encoding"));
 }
 
 TEST_F(ServerTest, HeightMapMatchesBoxTopAndFloor) {
