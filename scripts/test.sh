@@ -6,6 +6,7 @@
 # (SKIMAP_FUZZ_SECONDS each, default 20); then the concurrency tests under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+root=$(pwd)
 bash scripts/deps.sh
 bash scripts/check_format.sh
 jobs=$(nproc)
@@ -19,9 +20,12 @@ bash scripts/build.sh asan
 # recognises the same scene. Their code runs under ASan through the object service tests
 # and the unit tests of each part.
 heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances)'
+# Third-party leaks and races (Debian's uninstrumented libraries): tests/lsan.supp and
+# tests/tsan.supp.
 (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+  LSAN_OPTIONS="suppressions=$root/tests/lsan.supp:print_suppressions=0" \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --output-on-failure -j "$jobs" -LE fuzz -E "$heavy" --timeout 900)
 (cd build/asan && ctest --output-on-failure -j "$jobs" -L fuzz --timeout 900)
 bash scripts/build.sh tsan skimap_concurrency_test skimap_server_concurrency_test
-(cd build/tsan && TSAN_OPTIONS=halt_on_error=1 ctest --output-on-failure -L concurrency --timeout 900)
+(cd build/tsan && TSAN_OPTIONS="halt_on_error=1:suppressions=$root/tests/tsan.supp" ctest --output-on-failure -L concurrency --timeout 900)
