@@ -9,6 +9,8 @@
 // Input: u8 route (taken modulo 4), then the body's bytes. Parsing must answer OK or
 // INVALID_ARGUMENT with a message; a request that parsed must print as JSON (ToJson) and
 // that JSON must parse back into the same request, as a client echoing it would send it.
+#include <google/protobuf/util/message_differencer.h>
+
 #include <cstdint>
 #include <map>
 #include <string>
@@ -47,7 +49,10 @@ void Check(const std::string& body, const std::vector<Binding>& bindings) {
   const std::string json = server::ToJson(*request);
   Request again;
   if (!server::FromJsonBody(json, &again).ok()) Fail("a parsed request's JSON does not parse");
-  if (again.SerializeAsString() != request->SerializeAsString()) {
+  // Bytes first (NaN equals itself there), then values: -0.0 prints as 0 (found by
+  // fuzzing: "resolution": -.0), the same number.
+  if (again.SerializeAsString() != request->SerializeAsString() &&
+      !google::protobuf::util::MessageDifferencer::Equals(again, *request)) {
     Fail("a parsed request's JSON parses into another request");
   }
 }
