@@ -187,6 +187,11 @@ absl::StatusOr<v1::OccupancyGrid> MapClient::GetOccupancyGrid(
         absl::StrCat("occupancy grid: unknown data_encoding ", grid->data_encoding()));
   }
   const size_t cells = size_t(grid->width()) * grid->height();
+  // A grid is at most one message of raw cells (the server's reply limit); a larger claim
+  // is refused before anything is allocated.
+  if (cells > size_t(options_.max_message_bytes)) {
+    return absl::DataLossError("occupancy grid: width*height exceeds the message limit");
+  }
   const std::string& packed = grid->data();
   if (ZSTD_getFrameContentSize(packed.data(), packed.size()) != cells) {
     return absl::DataLossError("occupancy grid: the zstd data does not hold width*height cells");
