@@ -98,6 +98,24 @@ absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string&
   return out;
 }
 
+absl::StatusOr<v1::ClassifyImageRequest> ToClassifyImageRequest(const dataset::Frame& f) {
+  if (f.rgb_path.empty() || f.K.width <= 0 || f.K.height <= 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("frame ", f.id, ": no colour image or no image size to classify"));
+  }
+  absl::StatusOr<std::string> color = ReadBytes(f.rgb_path);
+  if (!color.ok()) return color.status();
+  v1::ClassifyImageRequest request;
+  const std::string lower = absl::AsciiStrToLower(f.rgb_path);
+  request.set_color_encoding(absl::EndsWith(lower, ".png") ? v1::COLOR_ENCODING_PNG
+                                                           : v1::COLOR_ENCODING_JPEG);
+  request.set_color(*std::move(color));
+  request.set_width(f.K.width);
+  request.set_height(f.K.height);
+  request.set_return_matches(true);
+  return request;
+}
+
 void ToApiPose(const Eigen::Isometry3d& T, v1::Pose* pose) {
   const Eigen::Quaterniond q(T.rotation());
   const Eigen::Vector3d t = T.translation();

@@ -14,6 +14,7 @@
 #include "client/frame_depth.h"
 #include "dataset/types.h"
 #include "skimap/v1/frames.pb.h"
+#include "skimap/v1/objects.pb.h"
 
 namespace skimap::client {
 
@@ -29,6 +30,11 @@ absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string&
 absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& frame, const std::string& map_name,
                                      uint64_t sequence,
                                      v1::DepthEncoding depth_encoding = kDefaultDepthEncoding);
+
+// The frame's colour image as stored (PNG or JPEG) in a ClassifyImage request that asks
+// for the 2D-3D matches (the single-view baseline: client/single_view.h). NotFound for a
+// missing file; FailedPrecondition if the frame has no colour image or no image size.
+absl::StatusOr<v1::ClassifyImageRequest> ToClassifyImageRequest(const dataset::Frame& frame);
 
 // Writes a rigid transform as an API pose (unit quaternion w, x, y, z + translation, m).
 void ToApiPose(const Eigen::Isometry3d& T, v1::Pose* pose);

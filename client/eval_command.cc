@@ -1,6 +1,7 @@
 #include "client/eval_command.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -8,65 +9,172 @@
 #include <map>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
+#include "client/dataset_frames.h"
+#include "client/instances_command.h"
 #include "client/stream_command.h"
+#include "dataset/model_points.h"
 #include "dataset/reader.h"
 
 namespace skimap::client {
 namespace {
 
+namespace fs = std::filesystem;
+
 double Ratio(int a, int b) { return b > 0 ? static_cast<double>(a) / b : 0; }
+
+// Model points of every object with a model file, at most this many each (MSSD's cost is
+// points x symmetries per pair; an even subset of a dense mesh gives the same maximum
+// within a fraction of its vertex spacing).
+constexpr int kMssdPoints = 1000;
+
+absl::StatusOr<std::map<int, std::vector<Eigen::Vector3d>>> LoadAllModelPoints(
+    const std::map<int, dataset::ModelInfo>& models) {
+  std::map<int, std::vector<Eigen::Vector3d>> points;
+  for (const auto& [obj_id, model] : models) {
+    if (model.ply_path.empty()) continue;
+    absl::StatusOr<std::vector<Eigen::Vector3d>> p =
+        dataset::LoadModelPoints(model.ply_path, 0.001, kMssdPoints);
+    if (!p.ok()) return p.status();
+    points[obj_id] = *std::move(p);
+  }
+  return points;
+}
+
+// The test scenes to run: all, or the ones named (NotFound naming one the split lacks).
+absl::StatusOr<std::vector<std::string>> PickScenes(const std::vector<std::string>& all,
+                                                    const EvalOptions& options,
+                                                    const std::string& dataset_root) {
+  if (options.scenes.empty()) return all;
+  std::vector<std::string> scenes;
+  for (absl::string_view name : absl::StrSplit(options.scenes, ',')) {
+    auto dir = std::find_if(all.begin(), all.end(), [&](const std::string& d) {
+      return fs::path(d).filename().string() == name;
+    });
+    if (dir == all.end()) {
+      return absl::NotFoundError(
+          absl::StrCat("--scenes: ", name, " is not a test scene of ", dataset_root));
+    }
+    scenes.push_back(*dir);
+  }
+  return scenes;
+}
+
+// The scene's objects in the world frame, from its first annotated frame with a pose.
+std::vector<TruthObject> SceneTruths(const dataset::Sequence& sequence) {
+  std::vector<TruthObject> truths;
+  for (const dataset::Frame& f : sequence.frames) {
+    if (f.objects.empty() || !f.has_pose) continue;
+    for (const dataset::ObjectAnnotation& a : f.objects) {
+      truths.push_back({a.obj_id, f.T_wc * a.T_m2c});
+    }
+    break;
+  }
+  return truths;
+}
+
+// The single-view baseline's instances for these frames (those with a pose and colour).
+absl::StatusOr<std::vector<v1::Instance>> SingleView(ObjectClient& objects,
+                                                     const std::vector<dataset::Frame>& frames,
+                                                     const SingleViewOptions& options) {
+  SingleViewScene scene;
+  for (const dataset::Frame& f : frames) {
+    if (!f.has_pose || f.rgb_path.empty()) continue;
+    absl::StatusOr<v1::ClassifyImageRequest> request = ToClassifyImageRequest(f);
+    if (!request.ok()) return request.status();
+    absl::StatusOr<v1::ClassifyImageResponse> response = objects.ClassifyImage(*request);
+    if (!response.ok()) return response.status();
+    scene.Add(EstimateSingleViewPoses(response->matches(), f.K, options), f.T_wc);
+  }
+  return scene.Instances();
+}
+
+// One method's score of one scene, added to its totals.
+struct MethodScore {
+  SceneScore score;
+  MssdRecall mssd;
+};
+
+MethodScore ScoreMethod(const std::vector<TruthObject>& truths,
+                        const std::vector<v1::Instance>& instances,
+                        const dataset::BopDataset& dataset,
+                        const std::map<int, std::vector<Eigen::Vector3d>>& points,
+                        const ScoreOptions& options, MethodTotals* totals) {
+  MethodScore s{ScoreScene(truths, instances, dataset.models, options), {}};
+  AddMssdScene(truths, instances, dataset.models, points, &s.mssd);
+  totals->instances += s.score.instances;
+  totals->true_positives += s.score.true_positives;
+  totals->mssd.truths += s.mssd.truths;
+  for (int k = 0; k < MssdRecall::kThresholds; ++k) totals->mssd.matched[k] += s.mssd.matched[k];
+  return s;
+}
+
+// "instances | true positives | precision | recall | AR_MSSD" cells of a table row.
+std::string Cells(int truths, int instances, int true_positives, const MssdRecall& mssd,
+                  bool mssd_available) {
+  return absl::StrFormat("%d | %d | %.3f | %.3f | %s", instances, true_positives,
+                         Ratio(true_positives, instances), Ratio(true_positives, truths),
+                         mssd_available ? absl::StrFormat("%.3f", mssd.Average()) : "-");
+}
+
+constexpr char kNoCells[] = "- | - | - | - | -";
+
+absl::Status WriteFile(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) return absl::UnavailableError(absl::StrCat("--instances_dir: cannot write ", path));
+  return absl::OkStatus();
+}
 
 }  // namespace
 
-absl::StatusOr<EvalTotals> RunEval(MapClient& client, const std::string& dataset_root,
-                                   const EvalOptions& options) {
+absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
+                                   const std::string& dataset_root, const EvalOptions& options) {
   absl::StatusOr<dataset::BopDataset> dataset = dataset::LoadBopDataset(dataset_root);
   if (!dataset.ok()) return dataset.status();
-  const std::vector<std::string>& all = dataset->scenes["test"];
-  std::vector<std::string> scenes;
-  if (options.scenes.empty()) {
-    scenes = all;
-  } else {
-    for (absl::string_view name : absl::StrSplit(options.scenes, ',')) {
-      auto dir = std::find_if(all.begin(), all.end(), [&](const std::string& d) {
-        return std::filesystem::path(d).filename().string() == name;
-      });
-      if (dir == all.end()) {
-        return absl::NotFoundError(
-            absl::StrCat("--scenes: ", name, " is not a test scene of ", dataset_root));
-      }
-      scenes.push_back(*dir);
-    }
-  }
-  if (scenes.empty()) {
-    return absl::NotFoundError(absl::StrCat(dataset_root, ": no test/ scenes"));
-  }
+  absl::StatusOr<std::vector<std::string>> scenes =
+      PickScenes(dataset->scenes["test"], options, dataset_root);
+  if (!scenes.ok()) return scenes.status();
+  if (scenes->empty()) return absl::NotFoundError(absl::StrCat(dataset_root, ": no test/ scenes"));
+  absl::StatusOr<std::map<int, std::vector<Eigen::Vector3d>>> model_points =
+      LoadAllModelPoints(dataset->models);
+  if (!model_points.ok()) return model_points.status();
   std::ofstream csv;
   if (!options.csv.empty()) {
     csv.open(options.csv, std::ios::trunc);
     if (!csv) return absl::UnavailableError(absl::StrCat("--csv: cannot write ", options.csv));
-    csv << "scene,obj_id,instance_id,translation_error_mm,rotation_error_deg,true_positive\n";
+    csv << "scene,obj_id,instance_id,translation_error_mm,rotation_error_deg,true_positive,"
+           "single_view_translation_error_mm,single_view_rotation_error_deg,"
+           "single_view_true_positive\n";
+  }
+  if (!options.instances_dir.empty()) {
+    std::error_code error;
+    fs::create_directories(options.instances_dir, error);
+    if (error) {
+      return absl::UnavailableError(
+          absl::StrCat("--instances_dir: cannot create ", options.instances_dir));
+    }
   }
   std::printf(
-      "| scene | frames | truths | instances | true positives | precision | recall | "
-      "frames/s (whole pipeline) |\n|---|---|---|---|---|---|---|---|\n");
+      "| scene | frames | truths | instances | true positives | precision | recall | AR_MSSD | "
+      "single-view instances | single-view true positives | single-view precision | "
+      "single-view recall | single-view AR_MSSD | frames/s (whole pipeline) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   EvalTotals totals;
-  std::map<int, std::pair<int, int>> per_object;
-  for (const std::string& dir : scenes) {
-    const std::string name = std::filesystem::path(dir).filename().string();
+  // Per obj_id: annotated, found by the map, found by the single view.
+  std::map<int, std::array<int, 3>> per_object;
+  for (const std::string& dir : *scenes) {
+    const std::string name = fs::path(dir).filename().string();
     absl::StatusOr<dataset::Sequence> sequence = dataset::LoadBopScene(dir);
     if (!sequence.ok()) return sequence.status();
     if (sequence->frames.empty()) continue;
-    // The scene's objects in the world frame, from its first annotated frame.
-    std::vector<TruthObject> truths;
-    for (const dataset::Frame& f : sequence->frames) {
-      if (f.objects.empty() || !f.has_pose) continue;
-      for (const dataset::ObjectAnnotation& a : f.objects) {
-        truths.push_back({a.obj_id, f.T_wc * a.T_m2c});
-      }
-      break;
-    }
+    const std::vector<TruthObject> truths = SceneTruths(*sequence);
+    bool mssd_available = true;
+    for (const TruthObject& t : truths) mssd_available &= model_points->contains(t.obj_id);
+    totals.mssd_available &= mssd_available;
+
     StreamOptions stream;
     stream.map_id = absl::StrCat("eval_", name);
     stream.resolution = options.resolution;
@@ -90,42 +198,86 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, const std::string& dataset
     list.set_page_size(1000);
     absl::StatusOr<std::vector<v1::Instance>> instances = client.ListAllInstances(list);
     if (!instances.ok()) return instances.status();
-    const SceneScore score = ScoreScene(truths, *instances, dataset->models, options.score);
     if (!options.keep_maps) {
       if (absl::Status s = client.DeleteMap(map); !s.ok()) return s;
     }
-    std::printf("| %s | %d | %d | %d | %d | %.3f | %.3f | %.1f |\n", name.c_str(), frames,
-                score.truths, score.instances, score.true_positives,
-                Ratio(score.true_positives, score.instances),
-                Ratio(score.true_positives, score.truths), seconds > 0 ? frames / seconds : 0);
+    const MethodScore multi =
+        ScoreMethod(truths, *instances, *dataset, *model_points, options.score, &totals.multi_view);
+
+    std::vector<v1::Instance> single_instances;
+    MethodScore single;
+    if (options.single_view) {
+      absl::StatusOr<std::vector<v1::Instance>> found =
+          SingleView(objects, KeepEvery(sequence->frames, options.every, options.max_frames),
+                     options.single_view_options);
+      if (!found.ok()) return found.status();
+      single_instances = *std::move(found);
+      single = ScoreMethod(truths, single_instances, *dataset, *model_points, options.score,
+                           &totals.single_view);
+    }
+    if (!options.instances_dir.empty()) {
+      const fs::path base = fs::path(options.instances_dir) / name;
+      if (absl::Status s = WriteFile(base.string() + ".json", FormatInstances(*instances, true));
+          !s.ok()) {
+        return s;
+      }
+      if (options.single_view) {
+        if (absl::Status s = WriteFile(base.string() + ".single_view.json",
+                                       FormatInstances(single_instances, true));
+            !s.ok()) {
+          return s;
+        }
+      }
+    }
+    const int n = static_cast<int>(truths.size());
+    std::printf(
+        "| %s | %d | %d | %s | %s | %.1f |\n", name.c_str(), frames, n,
+        Cells(n, multi.score.instances, multi.score.true_positives, multi.mssd, mssd_available)
+            .c_str(),
+        options.single_view ? Cells(n, single.score.instances, single.score.true_positives,
+                                    single.mssd, mssd_available)
+                                  .c_str()
+                            : kNoCells,
+        seconds > 0 ? frames / seconds : 0);
     std::fflush(stdout);
     for (size_t t = 0; t < truths.size(); ++t) {
-      if (!csv.is_open()) break;
-      const int m = score.match[t];
+      std::array<int, 3>& o = per_object[truths[t].obj_id];
+      ++o[0];
+      const int m = multi.score.match[t];
+      const int sv = options.single_view ? single.score.match[t] : -1;
+      if (m >= 0) ++o[1];
+      if (sv >= 0) ++o[2];
+      if (!csv.is_open()) continue;
       csv << name << "," << truths[t].obj_id << ","
           << (m >= 0 ? absl::StrCat((*instances)[m].id()) : "") << ","
-          << (m >= 0 ? absl::StrCat(score.error[t].translation * 1000) : "") << ","
-          << (m >= 0 ? absl::StrCat(score.error[t].rotation_deg) : "") << "," << (m >= 0) << "\n";
+          << (m >= 0 ? absl::StrCat(multi.score.error[t].translation * 1000) : "") << ","
+          << (m >= 0 ? absl::StrCat(multi.score.error[t].rotation_deg) : "") << "," << (m >= 0)
+          << "," << (sv >= 0 ? absl::StrCat(single.score.error[t].translation * 1000) : "") << ","
+          << (sv >= 0 ? absl::StrCat(single.score.error[t].rotation_deg) : "") << "," << (sv >= 0)
+          << "\n";
     }
-    for (const auto& [obj_id, counts] : score.per_object) {
-      per_object[obj_id].first += counts.first;
-      per_object[obj_id].second += counts.second;
-    }
-    totals.truths += score.truths;
-    totals.instances += score.instances;
-    totals.true_positives += score.true_positives;
+    totals.truths += n;
     totals.frames += frames;
     totals.seconds += seconds;
   }
-  std::printf("| all | %d | %d | %d | %d | %.3f | %.3f | %.1f |\n\n", totals.frames, totals.truths,
-              totals.instances, totals.true_positives,
-              Ratio(totals.true_positives, totals.instances),
-              Ratio(totals.true_positives, totals.truths),
+  const int n = totals.truths;
+  std::printf("| all | %d | %d | %s | %s | %.1f |\n\n", totals.frames, n,
+              Cells(n, totals.multi_view.instances, totals.multi_view.true_positives,
+                    totals.multi_view.mssd, totals.mssd_available)
+                  .c_str(),
+              options.single_view
+                  ? Cells(n, totals.single_view.instances, totals.single_view.true_positives,
+                          totals.single_view.mssd, totals.mssd_available)
+                        .c_str()
+                  : kNoCells,
               totals.seconds > 0 ? totals.frames / totals.seconds : 0);
-  std::printf("| obj_id | found | annotated | recall |\n|---|---|---|---|\n");
-  for (const auto& [obj_id, counts] : per_object) {
-    std::printf("| %d | %d | %d | %.2f |\n", obj_id, counts.first, counts.second,
-                Ratio(counts.first, counts.second));
+  std::printf(
+      "| obj_id | annotated | found | recall | single-view found | single-view recall |\n"
+      "|---|---|---|---|---|---|\n");
+  for (const auto& [obj_id, o] : per_object) {
+    std::printf("| %d | %d | %d | %.2f | %s | %s |\n", obj_id, o[0], o[1], Ratio(o[1], o[0]),
+                options.single_view ? absl::StrCat(o[2]).c_str() : "-",
+                options.single_view ? absl::StrFormat("%.2f", Ratio(o[2], o[0])).c_str() : "-");
   }
   return totals;
 }

@@ -30,6 +30,8 @@ int Fail(const absl::Status& s) {
   return 1;
 }
 
+int Exit(const absl::Status& s) { return s.ok() ? 0 : Fail(s); }
+
 void PrintObject(const v1::Object& o) {
   std::printf("%-14s %-20s frames %4llu  descriptors %7llu  voxels %6llu  centroids %7llu  %s%s\n",
               o.name().c_str(), o.display_name().empty() ? "-" : o.display_name().c_str(),
@@ -83,10 +85,11 @@ absl::StatusOr<v1::Object> StreamObject(ObjectClient& client, const TrainingObje
   });
 }
 
-int Train(ObjectClient& client, const std::string& dataset) {
+// keep_trained: an object the server already has is kept (and said so), not retrained.
+absl::Status Train(ObjectClient& client, const std::string& dataset, bool keep_trained) {
   const int only = absl::GetFlag(FLAGS_object);
   if (absl::GetFlag(FLAGS_on_server)) {
-    if (only <= 0) return Fail(absl::InvalidArgumentError("--on_server needs --object=ID"));
+    if (only <= 0) return absl::InvalidArgumentError("--on_server needs --object=ID");
     v1::TrainObjectFromDatasetRequest request;
     request.set_dataset_path(fs::absolute(dataset).string());
     request.set_obj_id(only);
@@ -94,37 +97,45 @@ int Train(ObjectClient& client, const std::string& dataset) {
     *request.mutable_params() = ParamsFromFlags();
     request.set_frame_stride(std::max(1, absl::GetFlag(FLAGS_frame_stride)));
     absl::StatusOr<v1::Operation> op = client.TrainObjectFromDataset(request);
-    if (!op.ok()) return Fail(op.status());
+    if (!op.ok()) return op.status();
     op = client.WaitDone(op->name(), PrintProgress);
-    if (!op.ok()) return Fail(op.status());
+    if (!op.ok()) return op.status();
     PrintObject(op->object());
-    return 0;
+    return absl::OkStatus();
   }
   std::vector<TrainingObject> objects;
   if (fs::exists(fs::path(dataset) / "scene_gt.json")) {
-    if (only <= 0) return Fail(absl::InvalidArgumentError("a scene folder needs --object=ID"));
+    if (only <= 0) return absl::InvalidArgumentError("a scene folder needs --object=ID");
     objects.push_back({only, dataset, ""});
   } else {
     absl::StatusOr<std::vector<TrainingObject>> all = ListTrainingObjects(dataset);
-    if (!all.ok()) return Fail(all.status());
+    if (!all.ok()) return all.status();
     for (const TrainingObject& o : *all) {
       if (only <= 0 || o.obj_id == only) objects.push_back(o);
     }
     if (objects.empty()) {
-      return Fail(
-          absl::NotFoundError(absl::StrCat(dataset, ": no train/ folder for object ", only)));
+      return absl::NotFoundError(absl::StrCat(dataset, ": no train/ folder for object ", only));
     }
   }
   for (TrainingObject& o : objects) {
+    if (keep_trained) {
+      const std::string name = absl::StrCat("objects/", o.obj_id);
+      absl::StatusOr<v1::Object> existing = client.GetObject(name);
+      if (existing.ok()) {
+        std::printf("%s is already trained: kept (delete it to retrain)\n", name.c_str());
+        continue;
+      }
+      if (!absl::IsNotFound(existing.status())) return existing.status();
+    }
     if (!absl::GetFlag(FLAGS_name).empty()) o.name = absl::GetFlag(FLAGS_name);
     absl::StatusOr<v1::Object> trained = StreamObject(client, o);
-    if (!trained.ok()) return Fail(trained.status());
+    if (!trained.ok()) return trained.status();
     PrintObject(*trained);
   }
-  return 0;
+  return absl::OkStatus();
 }
 
-int Build(ObjectClient& client) {
+absl::Status Build(ObjectClient& client) {
   v1::BuildClassifierRequest request;
   if (int k = absl::GetFlag(FLAGS_classes_per_object); k > 0) {
     request.mutable_params()->set_classes_per_object(k);
@@ -132,14 +143,14 @@ int Build(ObjectClient& client) {
   if (int t = absl::GetFlag(FLAGS_trees); t > 0) request.mutable_params()->set_trees(t);
   if (int d = absl::GetFlag(FLAGS_max_depth); d > 0) request.mutable_params()->set_max_depth(d);
   absl::StatusOr<v1::Operation> op = client.BuildClassifier(request);
-  if (!op.ok()) return Fail(op.status());
+  if (!op.ok()) return op.status();
   op = client.WaitDone(op->name(), PrintProgress);
-  if (!op.ok()) return Fail(op.status());
+  if (!op.ok()) return op.status();
   const v1::Classifier& c = op->classifier();
   std::printf("classifier ready: %d objects, %u classes, %u trees x depth %u, %.1f MiB\n",
               c.objects_size(), c.classes(), c.params().trees(), c.params().max_depth(),
               c.model_bytes() / 1048576.0);
-  return 0;
+  return absl::OkStatus();
 }
 
 absl::StatusOr<std::string> ObjectArg(const std::vector<std::string>& args) {
@@ -153,6 +164,13 @@ absl::StatusOr<std::string> ObjectArg(const std::vector<std::string>& args) {
 }
 
 }  // namespace
+
+absl::Status TrainAndBuild(const std::string& server, const std::string& dataset,
+                           const Connection& connection) {
+  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server, {.connection = connection});
+  if (absl::Status s = Train(*client, dataset, /*keep_trained=*/true); !s.ok()) return s;
+  return Build(*client);
+}
 
 int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args,
                       const Connection& connection) {
@@ -171,10 +189,10 @@ int RunObjectsCommand(const std::string& server, const std::vector<std::string>&
     std::printf("%s\n", c->DebugString().c_str());
     return 0;
   }
-  if (verb == "build") return Build(*client);
+  if (verb == "build") return Exit(Build(*client));
   if (verb == "train") {
     if (args.size() < 4) return Fail(absl::InvalidArgumentError("objects train needs a DATASET"));
-    return Train(*client, args[3]);
+    return Exit(Train(*client, args[3], /*keep_trained=*/false));
   }
   if (verb == "rm" || verb == "info") {
     absl::StatusOr<std::string> name = ObjectArg(args);

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "client/channel.h"
 
 namespace skimap::client {
@@ -27,6 +28,14 @@ namespace skimap::client {
 // Returns the process exit code (0 OK, 1 error, 2 usage), printing errors to stderr.
 int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args,
                       const Connection& connection = {});
+
+// `objects train DATASET` then `objects build`, with the same flags (what `skimap eval
+// --train` runs first), except that an object the server already has is kept, not
+// retrained (delete it to retrain): the database is trained or loaded. The build always
+// runs (its flags are the forest-size and classes-per-object ablations). Progress goes to
+// stderr; the first error is returned.
+absl::Status TrainAndBuild(const std::string& server, const std::string& dataset,
+                           const Connection& connection = {});
 
 }  // namespace skimap::client
 

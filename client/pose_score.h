@@ -4,6 +4,13 @@
 // symmetric equivalent (truth * S for the model's symmetries S, BOP convention). Each truth
 // and each instance is matched at most once (greedily, the closest first).
 //
+// Beside it, BOP's stricter MSSD recall (Hodan et al., BOP challenge 2019-2023): the error
+// of an estimate is the maximum symmetry-aware surface distance over the model's points,
+// min over S of max over x of |estimate * x - truth * S * x|; per threshold
+// theta in {0.05, 0.10, ..., 0.50} x the object's diameter, estimates (highest score
+// first) are matched to the closest unmatched truth of the same object within theta; the
+// recall is the mean over the thresholds of the fraction of truths matched (AR_MSSD).
+//
 // Thread safety: pure functions.
 #ifndef CLIENT_POSE_SCORE_H_
 #define CLIENT_POSE_SCORE_H_
@@ -52,6 +59,28 @@ struct SceneScore {
 SceneScore ScoreScene(const std::vector<TruthObject>& truths,
                       const std::vector<v1::Instance>& instances,
                       const std::map<int, dataset::ModelInfo>& models, const ScoreOptions& options);
+
+// The MSSD error (metres) of `estimate` against `truth` over `points` (model frame).
+// REQUIRES: points non-empty.
+double MssdError(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth,
+                 const std::vector<Eigen::Vector3d>& points,
+                 const std::vector<Eigen::Isometry3d>& symmetries);
+
+// Truths matched per MSSD threshold, summed over scenes.
+struct MssdRecall {
+  static constexpr int kThresholds = 10;  // theta_i = 0.05 * (i + 1) x diameter
+  int truths = 0;
+  int matched[kThresholds] = {};
+  // AR_MSSD: the mean over the thresholds of matched / truths (0 without truths).
+  double Average() const;
+};
+
+// Adds one scene to `recall`. `points` by obj_id: the model's points (metres); a truth
+// whose object has no points or no diameter in `models` counts as a truth never matched.
+void AddMssdScene(const std::vector<TruthObject>& truths,
+                  const std::vector<v1::Instance>& instances,
+                  const std::map<int, dataset::ModelInfo>& models,
+                  const std::map<int, std::vector<Eigen::Vector3d>>& points, MssdRecall* recall);
 
 }  // namespace skimap::client
 

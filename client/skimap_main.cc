@@ -15,7 +15,7 @@
 //   skimap nodes                               a fleet's nodes and the maps each serves
 //   skimap instances --map=ID [--box=..|--sphere=..] [--objects=..] [--min_score=S] [--json]
 //     (client/instances_command.h); `stream --recognition=newest` creates a map with it on
-//   skimap eval DATASET [--scenes=..] [--every=N] [--max_frames=N] [--csv=FILE]
+//   skimap eval DATASET [--scenes=..] [--every=N] [--max_frames=N] [--csv=FILE] [--train]
 //     recognition precision / recall on a BOP dataset's test scenes (client/eval_command.h)
 //
 // Authentication and TLS (docs/operations.md): --token_file=FILE (or $SKIMAP_TOKEN) sends
@@ -65,6 +65,13 @@ ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this 
 ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
 ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
 ABSL_FLAG(bool, keep_maps, false, "eval: keep the eval_<scene> maps");
+ABSL_FLAG(bool, single_view, true,
+          "eval: also score the single-view baseline (each frame alone: ClassifyImage + PnP)");
+ABSL_FLAG(std::string, instances_dir, "",
+          "eval: write each scene's instances (map and single view) as JSON files here");
+ABSL_FLAG(bool, train, false,
+          "eval: first train every train/ object of DATASET and build the classifier (the "
+          "objects train / build flags apply: --detector, --classes_per_object, --trees, ...)");
 ABSL_FLAG(std::string, token_file, "",
           "file whose first line is the bearer token sent on every call (default: the "
           "environment variable SKIMAP_TOKEN, if set)");
@@ -252,7 +259,7 @@ int main(int argc, char** argv) {
       "[--objects=1,5] [--min_score=S] [--json]\n"
       "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
       "[--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10] [--csv=FILE] "
-      "[--keep_maps]");
+      "[--instances_dir=DIR] [--single_view=false] [--keep_maps] [--train]");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -289,9 +296,20 @@ int main(int argc, char** argv) {
     options.score.max_rotation_deg = absl::GetFlag(FLAGS_max_rotation_deg);
     options.csv = absl::GetFlag(FLAGS_csv);
     options.keep_maps = absl::GetFlag(FLAGS_keep_maps);
+    options.single_view = absl::GetFlag(FLAGS_single_view);
+    options.instances_dir = absl::GetFlag(FLAGS_instances_dir);
     if (options.every < 1) return Fail(absl::InvalidArgumentError("--every must be at least 1"));
+    if (absl::GetFlag(FLAGS_train)) {
+      if (absl::Status s =
+              skimap::client::TrainAndBuild(absl::GetFlag(FLAGS_server), args[2], *connection);
+          !s.ok()) {
+        return Fail(s);
+      }
+    }
+    std::unique_ptr<skimap::client::ObjectClient> objects = skimap::client::ObjectClient::Connect(
+        absl::GetFlag(FLAGS_server), {.connection = *connection});
     absl::StatusOr<skimap::client::EvalTotals> totals =
-        skimap::client::RunEval(*client, args[2], options);
+        skimap::client::RunEval(*client, *objects, args[2], options);
     return totals.ok() ? 0 : Fail(totals.status());
   }
   const bool needs_map = command == "stream" || command == "grid" || command == "heightmap" ||

@@ -26,18 +26,22 @@ void Progress(size_t done, size_t total, double seconds) {
 
 }  // namespace
 
+std::vector<dataset::Frame> KeepEvery(std::vector<dataset::Frame> frames, int every,
+                                      int max_frames) {
+  if (every <= 1 && max_frames <= 0) return frames;
+  std::vector<dataset::Frame> kept;
+  for (size_t i = 0; i < frames.size(); i += std::max(1, every)) {
+    if (max_frames > 0 && static_cast<int>(kept.size()) >= max_frames) break;
+    kept.push_back(std::move(frames[i]));
+  }
+  return kept;
+}
+
 absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
                            const StreamOptions& options) {
   absl::StatusOr<std::vector<dataset::Frame>> frames = LoadDatasetFrames(dataset_path);
   if (!frames.ok()) return frames.status();
-  if (options.every > 1 || options.max_frames > 0) {
-    std::vector<dataset::Frame> kept;
-    for (size_t i = 0; i < frames->size(); i += std::max(1, options.every)) {
-      if (options.max_frames > 0 && static_cast<int>(kept.size()) >= options.max_frames) break;
-      kept.push_back((*frames)[i]);
-    }
-    *frames = std::move(kept);
-  }
+  *frames = KeepEvery(*std::move(frames), options.every, options.max_frames);
   const std::string map_name = absl::StrCat("maps/", options.map_id);
   absl::StatusOr<v1::Map> map = client.GetMap(map_name);
   if (absl::IsNotFound(map.status())) {
