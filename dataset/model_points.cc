@@ -3,6 +3,8 @@
 #include <assimp/scene.h>
 
 #include <assimp/Importer.hpp>
+#include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 
@@ -14,10 +16,13 @@
 namespace skimap::dataset {
 namespace {
 
-// A PLY file's header must be whole before Assimp reads it: Assimp 5.2 loops forever on a
-// header that ends inside an element line ("element vertex" without a number, then EOF).
-// OK for another format (Assimp tells them apart) or a header that has a "format" line,
-// only numeric element counts and "end_header" within 64 KiB.
+// A PLY file's header must be whole and its counts possible before Assimp reads it:
+// Assimp 5.2 loops forever on a header that ends inside an element line ("element vertex"
+// without a number, then EOF), and allocates what a header claims before it reads the body
+// (a truncated file claiming 10^6 vertices: 12 MB, leaked when the body runs out). OK for
+// another format (Assimp tells them apart) or a header that has a "format" line, numeric
+// element counts and "end_header" within 64 KiB, and whose elements fit the bytes after it
+// (every property of every element takes at least one byte, ASCII or binary).
 absl::Status CheckPlyHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
@@ -25,14 +30,25 @@ absl::Status CheckPlyHeader(const std::string& path) {
     return absl::OkStatus();  // not a PLY file: Assimp's own checks apply
   }
   bool format = false;
-  size_t bytes = line.size();
-  while (std::getline(in, line) && (bytes += line.size() + 1) <= 65536) {
+  size_t header_bytes = line.size() + 1;
+  // Per element: its count and its properties.
+  std::vector<std::pair<uint64_t, uint64_t>> elements;
+  while (std::getline(in, line) && (header_bytes += line.size() + 1) <= 65536) {
     const absl::string_view l = absl::StripTrailingAsciiWhitespace(line);
     if (l == "end_header") {
-      if (format) return absl::OkStatus();
-      break;
+      if (!format) break;
+      const uint64_t body = std::filesystem::file_size(path) - header_bytes;
+      uint64_t least = 0;
+      for (const auto& [count, properties] : elements) {
+        if (count > body || (least += count * std::max<uint64_t>(properties, 1)) > body) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              path, ": the PLY header claims more elements than its ", body, " bytes hold"));
+        }
+      }
+      return absl::OkStatus();
     }
     if (absl::StartsWith(l, "format ")) format = true;
+    if (absl::StartsWith(l, "property ") && !elements.empty()) ++elements.back().second;
     if (absl::StartsWith(l, "element ")) {
       const std::vector<absl::string_view> words = absl::StrSplit(l, ' ', absl::SkipEmpty());
       uint64_t count = 0;
@@ -40,6 +56,7 @@ absl::Status CheckPlyHeader(const std::string& path) {
         return absl::InvalidArgumentError(
             absl::StrCat(path, ": PLY header line \"", l, "\" needs a name and a count"));
       }
+      elements.emplace_back(count, 0);
     }
   }
   return absl::InvalidArgumentError(

@@ -92,7 +92,7 @@ TEST_F(ModelPointsTest, ErrorsNameTheFile) {
       "ply\nelement vertex 1\nproperty float x\nend_header\n1\n",     // no format
       "not a model at all",
       "ply\nformat binary_little_endian 1.0\nelement vertex 1000000\nproperty float x\n"
-      "property float y\nproperty float z\nend_header\nabc"};  // truncated body
+      "property float y\nproperty float z\nend_header\nabc"};  // claims more than it holds
   for (size_t i = 0; i < bad.size(); ++i) {
     const std::string path = Path("bad" + std::to_string(i) + ".ply");
     std::ofstream(path) << bad[i];
