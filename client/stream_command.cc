@@ -134,16 +134,19 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
                                  absl::StrCat("frame ", ack->sequence(), ": ", ack->message()));
     }
   }
-  std::printf(
-      "streamed %zu frames to %s in %.2f s (%.1f frames/s): %zu ok, %zu failed, "
-      "mean integration %.1f ms\n",
-      received, map_name.c_str(), seconds, seconds > 0 ? received / seconds : 0, ok, received - ok,
-      ok ? integration_ms / ok : 0.0);
+  // Quiet callers (skimap eval) print their own table on stdout: the summary goes to stderr.
+  FILE* summary = options.quiet ? stderr : stdout;
+  std::fprintf(summary,
+               "streamed %zu frames to %s in %.2f s (%.1f frames/s): %zu ok, %zu failed, "
+               "mean integration %.1f ms\n",
+               received, map_name.c_str(), seconds, seconds > 0 ? received / seconds : 0, ok,
+               received - ok, ok ? integration_ms / ok : 0.0);
   map = client.GetMap(map_name);
   if (map.ok()) {
-    std::printf("map %s: %llu voxels, %llu frames, %.1f MiB\n", map_name.c_str(),
-                (unsigned long long)map->stats().voxels(),
-                (unsigned long long)map->stats().frames(), map->stats().memory_bytes() / 1048576.0);
+    std::fprintf(summary, "map %s: %llu voxels, %llu frames, %.1f MiB\n", map_name.c_str(),
+                 (unsigned long long)map->stats().voxels(),
+                 (unsigned long long)map->stats().frames(),
+                 map->stats().memory_bytes() / 1048576.0);
   }
   return first_error;
 }

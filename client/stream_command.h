@@ -21,7 +21,7 @@ struct StreamOptions {
   double fps = 0;            // pacing; 0 = as fast as the server acknowledges
   double resolution = 0.05;  // metres, only used to create the map
   int window = 8;            // frames in flight
-  bool quiet = false;        // no progress line
+  bool quiet = false;        // no progress line; the summary on stderr, not stdout
   int every = 1;             // send every n-th frame of the dataset
   int max_frames = 0;        // send at most this many; 0 = all
   // Recognition on the map, when this stream creates it (an existing map keeps its own).
