@@ -76,11 +76,6 @@ SceneScore ScoreScene(const std::vector<TruthObject>& truths,
     instance_used[p.instance] = true;
     ++score.true_positives;
   }
-  for (size_t t = 0; t < truths.size(); ++t) {
-    std::pair<int, int>& o = score.per_object[truths[t].obj_id];
-    ++o.second;
-    if (score.match[t] >= 0) ++o.first;
-  }
   return score;
 }
 

@@ -51,8 +51,6 @@ struct SceneScore {
   // Per truth (in order): the matched instance's index, or -1; and its error when matched.
   std::vector<int> match;
   std::vector<PoseError> error;
-  // Per obj_id: {found, annotated}.
-  std::map<int, std::pair<int, int>> per_object;
 };
 
 // `models` by obj_id gives the symmetries (an object missing from it has none).

@@ -10,9 +10,10 @@
 //                              frame.T_wc);
 //   ScoreScene(truths, scene.Instances(), models, score_options);
 //
-// PnP (OpenCV): EPnP inside RANSAC over the object's matches, reprojection threshold
-// reprojection_px, then Levenberg-Marquardt on the inliers; a pose needs min_inliers
-// inliers and the object in front of the camera (0.05 m < z < 10 m).
+// PnP (OpenCV): USAC over the object's matches (minimal samples, MSAC score, inner local
+// optimisation, a fixed random state: the answer is a function of the input), reprojection
+// threshold reprojection_px, then Levenberg-Marquardt on the inliers; a pose needs
+// min_inliers inliers and the object in front of the camera (0.05 m < z < 10 m).
 //
 // Thread safety: pure functions; a SingleViewScene is not thread safe.
 #ifndef CLIENT_SINGLE_VIEW_H_
