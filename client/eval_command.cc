@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
+#include "nlohmann/json.hpp"
 #include "client/dataset_frames.h"
 #include "client/instances_command.h"
 #include "client/stream_command.h"
@@ -120,12 +121,36 @@ std::string Cells(int truths, int instances, int true_positives, const MssdRecal
 
 constexpr char kNoCells[] = "- | - | - | - | -";
 
-absl::Status WriteFile(const std::string& path, const std::string& text) {
+absl::Status WriteFile(const std::string& flag, const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::trunc);
   out << text;
   out.close();
-  if (!out) return absl::UnavailableError(absl::StrCat("--instances_dir: cannot write ", path));
+  if (!out) return absl::UnavailableError(absl::StrCat("--", flag, ": cannot write ", path));
   return absl::OkStatus();
+}
+
+// One scene's instances of one method as summary entries: obj_id, score, and whether the
+// instance is a true positive (matched to a truth).
+void AddDetections(const std::string& scene, const std::vector<v1::Instance>& instances,
+                   const SceneScore& score, nlohmann::ordered_json* out) {
+  std::vector<bool> matched(instances.size(), false);
+  for (int m : score.match) {
+    if (m >= 0) matched[m] = true;
+  }
+  for (size_t i = 0; i < instances.size(); ++i) {
+    out->push_back({{"scene", scene},
+                    {"obj_id", instances[i].obj_id()},
+                    {"score", instances[i].score()},
+                    {"true_positive", static_cast<bool>(matched[i])}});
+  }
+}
+
+nlohmann::ordered_json MethodSummary(const MethodTotals& t, int truths, bool mssd_available) {
+  return {{"instances", t.instances},
+          {"true_positives", t.true_positives},
+          {"precision", Ratio(t.true_positives, t.instances)},
+          {"recall", Ratio(t.true_positives, truths)},
+          {"ar_mssd", mssd_available ? nlohmann::ordered_json(t.mssd.Average()) : nullptr}};
 }
 
 }  // namespace
@@ -163,6 +188,8 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
       "single-view recall | single-view AR_MSSD | frames/s (whole pipeline) |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   EvalTotals totals;
+  nlohmann::ordered_json detections = nlohmann::ordered_json::array();
+  nlohmann::ordered_json single_detections = nlohmann::ordered_json::array();
   // Per obj_id: annotated, found by the map, found by the single view.
   std::map<int, std::array<int, 3>> per_object;
   for (const std::string& dir : *scenes) {
@@ -203,6 +230,7 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
     }
     const MethodScore multi =
         ScoreMethod(truths, *instances, *dataset, *model_points, options.score, &totals.multi_view);
+    AddDetections(name, *instances, multi.score, &detections);
 
     std::vector<v1::Instance> single_instances;
     MethodScore single;
@@ -214,15 +242,17 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
       single_instances = *std::move(found);
       single = ScoreMethod(truths, single_instances, *dataset, *model_points, options.score,
                            &totals.single_view);
+      AddDetections(name, single_instances, single.score, &single_detections);
     }
     if (!options.instances_dir.empty()) {
       const fs::path base = fs::path(options.instances_dir) / name;
-      if (absl::Status s = WriteFile(base.string() + ".json", FormatInstances(*instances, true));
+      if (absl::Status s = WriteFile("instances_dir", base.string() + ".json",
+                                     FormatInstances(*instances, true));
           !s.ok()) {
         return s;
       }
       if (options.single_view) {
-        if (absl::Status s = WriteFile(base.string() + ".single_view.json",
+        if (absl::Status s = WriteFile("instances_dir", base.string() + ".single_view.json",
                                        FormatInstances(single_instances, true));
             !s.ok()) {
           return s;
@@ -278,6 +308,26 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
     std::printf("| %d | %d | %d | %.2f | %s | %s |\n", obj_id, o[0], o[1], Ratio(o[1], o[0]),
                 options.single_view ? absl::StrCat(o[2]).c_str() : "-",
                 options.single_view ? absl::StrFormat("%.2f", Ratio(o[2], o[0])).c_str() : "-");
+  }
+  if (!options.summary.empty()) {
+    nlohmann::ordered_json summary = {
+        {"scenes", scenes->size()},
+        {"frames", totals.frames},
+        {"truths", n},
+        {"seconds", totals.seconds},
+        {"frames_per_second", totals.seconds > 0 ? totals.frames / totals.seconds : 0},
+        {"max_translation_mm", options.score.max_translation * 1000},
+        {"max_rotation_deg", options.score.max_rotation_deg},
+        {"multi_view", MethodSummary(totals.multi_view, n, totals.mssd_available)},
+    };
+    summary["multi_view"]["detections"] = std::move(detections);
+    if (options.single_view) {
+      summary["single_view"] = MethodSummary(totals.single_view, n, totals.mssd_available);
+      summary["single_view"]["detections"] = std::move(single_detections);
+    }
+    if (absl::Status s = WriteFile("summary", options.summary, summary.dump(1) + "\n"); !s.ok()) {
+      return s;
+    }
   }
   return totals;
 }

@@ -3,7 +3,8 @@
 //
 //   skimap eval DATASET [--scenes=000001,000002] [--every=1] [--max_frames=0]
 //               [--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10]
-//               [--csv=FILE] [--instances_dir=DIR] [--keep_maps] [--single_view=true]
+//               [--csv=FILE] [--instances_dir=DIR] [--summary=FILE] [--keep_maps]
+//               [--single_view=true]
 //               [--train [--detector=SIFT] [--classes_per_object=K] [--trees=T]
 //               [--max_depth=D] [--frame_stride=N]]
 //
@@ -24,7 +25,9 @@
 // Prints a Markdown table, one row per scene and the totals, then recall per object;
 // --csv writes one row per truth (both methods' matches and errors); --instances_dir
 // writes each scene's instances as `skimap instances --json` does: <scene>.json (the map's)
-// and <scene>.single_view.json (the baseline's), for any BOP-style scorer.
+// and <scene>.single_view.json (the baseline's), for any BOP-style scorer; --summary writes
+// the totals and every instance's score and verdict as JSON (scripts/ablation.py reads it:
+// precision-recall curves over the minimum score).
 //
 // Thread safety: one call at a time.
 #ifndef CLIENT_EVAL_COMMAND_H_
@@ -48,6 +51,7 @@ struct EvalOptions {
   ScoreOptions score;
   std::string csv;            // one row per truth, or empty
   std::string instances_dir;  // per scene instance JSON files, or empty
+  std::string summary;        // the totals and each instance's score and verdict, or empty
   bool keep_maps = false;
   bool single_view = true;  // also run the single-view baseline
   SingleViewOptions single_view_options;

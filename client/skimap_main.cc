@@ -69,6 +69,8 @@ ABSL_FLAG(bool, single_view, true,
           "eval: also score the single-view baseline (each frame alone: ClassifyImage + PnP)");
 ABSL_FLAG(std::string, instances_dir, "",
           "eval: write each scene's instances (map and single view) as JSON files here");
+ABSL_FLAG(std::string, summary, "",
+          "eval: write the totals and each instance's score and verdict as JSON here");
 ABSL_FLAG(bool, train, false,
           "eval: first train every train/ object of DATASET and build the classifier (the "
           "objects train / build flags apply: --detector, --classes_per_object, --trees, ...)");
@@ -259,7 +261,7 @@ int main(int argc, char** argv) {
       "[--objects=1,5] [--min_score=S] [--json]\n"
       "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
       "[--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10] [--csv=FILE] "
-      "[--instances_dir=DIR] [--single_view=false] [--keep_maps] [--train]");
+      "[--instances_dir=DIR] [--summary=FILE] [--single_view=false] [--keep_maps] [--train]");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -298,6 +300,7 @@ int main(int argc, char** argv) {
     options.keep_maps = absl::GetFlag(FLAGS_keep_maps);
     options.single_view = absl::GetFlag(FLAGS_single_view);
     options.instances_dir = absl::GetFlag(FLAGS_instances_dir);
+    options.summary = absl::GetFlag(FLAGS_summary);
     if (options.every < 1) return Fail(absl::InvalidArgumentError("--every must be at least 1"));
     if (absl::GetFlag(FLAGS_train)) {
       if (absl::Status s =

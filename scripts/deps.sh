@@ -9,7 +9,7 @@ pkgs=(build-essential cmake ninja-build ccache lld pkg-config clang-format
   libturbojpeg0-dev libssl-dev openssl libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
   prometheus-cpp-dev
   clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql
-  chromium)
+  chromium python3-matplotlib)
 if [[ "${1:-}" == "--bench" ]]; then
   pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev libopen3d-dev)
 fi
