@@ -11,12 +11,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
-#include "nlohmann/json.hpp"
 #include "client/dataset_frames.h"
 #include "client/instances_command.h"
 #include "client/stream_command.h"
 #include "dataset/model_points.h"
 #include "dataset/reader.h"
+#include "nlohmann/json.hpp"
 
 namespace skimap::client {
 namespace {
