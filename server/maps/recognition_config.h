@@ -21,7 +21,7 @@ struct RecognitionConfig {
   int triples = 2000;
   double hough_bin = 0.02;
   bool every_frame = false;  // policy EVERY_FRAME (else NEWEST)
-  double min_instance_score = 40;
+  double min_instance_score = 100;
   double min_instance_fit = 0.35;
   friend bool operator==(const RecognitionConfig&, const RecognitionConfig&) = default;
 };
