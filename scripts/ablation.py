@@ -13,7 +13,8 @@ against a skimapd this script starts per detector (loopback, a fresh data dir un
 DIR/servers: an object database holds one detector's features), so runs never share a
 database with another tool.
 
-Writes DIR/runs/<run>.json (eval's summary), DIR/ablation.csv (one row per run) and the
+Writes DIR/runs/<run>.json (eval's summary), DIR/ablation.csv and DIR/ablation.md (one
+row per run, the same table as CSV and Markdown) and the
 plots DIR/ablation_<factor>.png (precision, recall and AR_MSSD against the factor, frames/s
 beside) and DIR/precision_recall.png (each detector's base run swept over the minimum
 instance score; the single-view baseline's too when it ran). --resume keeps runs whose
@@ -160,6 +161,11 @@ def write_outputs(args, runs, summaries, out):
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
+    with open(os.path.join(out, "ablation.md"), "w") as f:
+        f.write("| " + " | ".join(rows[0].keys()) + " |\n")
+        f.write("|" + "---|" * len(rows[0]) + "\n")
+        for r in rows:
+            f.write("| " + " | ".join(str(v) for v in r.values()) + " |\n")
 
     base_detector, base_classes, base_trees = args.base
     factors = [("classes_per_object", "classes per object", args.classes,

@@ -46,20 +46,31 @@ void RandomForest::Predict(const float* x, int top_n, std::vector<ClassScore>* o
 namespace {
 
 // The leaf of every row in every tree, tree by tree (a tree's upper levels stay in cache):
-// leaf[i * trees + t]. `feature(i, f)` reads feature f of row i.
+// leaf[i * trees + t]. `feature(i, f)` reads feature f of row i. Rows go down a tree
+// kBlock at a time, one level per pass over the block: the block's node loads do not
+// depend on each other, so their cache misses overlap instead of queueing (a forest of a
+// few thousand classes is megabytes; one row's walk is a chain of dependent misses).
 template <class Feature>
 void WalkTrees(const std::vector<uint32_t>& roots, const std::vector<RandomForest::Node>& nodes,
                size_t n, Feature feature, std::vector<uint32_t>* leaf) {
+  constexpr size_t kBlock = 16;
   const size_t trees = roots.size();
   leaf->resize(n * trees);
   for (size_t t = 0; t < trees; ++t) {
-    for (size_t i = 0; i < n; ++i) {
-      uint32_t k = roots[t];
-      while (nodes[k].feature >= 0) {
-        const RandomForest::Node& nd = nodes[k];
-        k = feature(i, nd.feature) < nd.threshold ? nd.b : nd.a;
+    for (size_t first = 0; first < n; first += kBlock) {
+      const size_t m = std::min(kBlock, n - first);
+      uint32_t k[kBlock];
+      std::fill(k, k + m, roots[t]);
+      for (bool moved = true; moved;) {
+        moved = false;
+        for (size_t j = 0; j < m; ++j) {
+          const RandomForest::Node& nd = nodes[k[j]];
+          if (nd.feature < 0) continue;
+          k[j] = feature(first + j, nd.feature) < nd.threshold ? nd.b : nd.a;
+          moved = true;
+        }
       }
-      (*leaf)[i * trees + t] = k;
+      for (size_t j = 0; j < m; ++j) (*leaf)[(first + j) * trees + t] = k[j];
     }
   }
 }

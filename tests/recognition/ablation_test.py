@@ -67,7 +67,9 @@ class AblationTest(unittest.TestCase):
         with open(os.path.join(self.out, "runs", "ORB_c50_t24_e1.json")) as f:
             self.assertNotIn("single_view", json.load(f))
 
-    def test_plots_are_pngs(self):
+    def test_markdown_table_and_png_plots(self):
+        with open(os.path.join(self.out, "ablation.md")) as f:
+            self.assertEqual(len(f.read().splitlines()), 2 + 4)  # header, rule, one row per run
         for name in ("ablation_classes_per_object", "ablation_trees", "ablation_every",
                      "precision_recall"):
             with open(os.path.join(self.out, name + ".png"), "rb") as f:
