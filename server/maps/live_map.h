@@ -274,7 +274,8 @@ class LiveMap {
   bool OfferRecognition(uint64_t sequence, const v1::Frame& frame,
                         std::shared_ptr<const perception::RgbdFrame> decoded,
                         const std::function<void()>& done);
-  void RecognizeOnThread(RecognitionJob& job);  // the recognition thread
+  void ObserveOnThread(RecognitionJob& job);    // the queue's first thread: job.observed
+  void RecognizeOnThread(RecognitionJob& job);  // its second: labels, votes, instances
   // Worker: fuses a frame's labels with its current pose; nullopt if the frame is gone or
   // was recognised already.
   std::optional<perception::CameraPose> ApplyLabelsOnWorker(
@@ -330,7 +331,7 @@ class LiveMap {
   std::shared_ptr<const recognition::RecognitionModel> model_;
   absl::Status recognition_status_;
   std::unique_ptr<recognition::LabelObserver> worker_observer_;
-  std::unique_ptr<recognition::LabelObserver> thread_observer_;  // recognition thread only
+  std::unique_ptr<recognition::LabelObserver> thread_observer_;  // observing thread only
   VoxelBatch<MultiLabelVoxel> labels_add_, labels_remove_;       // worker only
   std::map<uint64_t, Eigen::Isometry3d> hypothesis_moves_;       // worker only: frame -> delta
   std::atomic<uint64_t> recognized_frames_{0};

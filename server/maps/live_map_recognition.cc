@@ -1,5 +1,6 @@
-// LiveMap: the recognition stage (docs/recognition.md). The recognition thread observes
-// labels and votes; every change of the MapState runs on the map's worker.
+// LiveMap: the recognition stage (docs/recognition.md). The observing thread turns a
+// frame into label observations; the recognition thread fuses them, votes and reconciles
+// (recognition_queue.h); every change of the MapState runs on the map's worker.
 #include <algorithm>
 #include <cstdio>
 #include <random>
@@ -66,9 +67,10 @@ void LiveMap::StartRecognition() {
   model_ = std::make_shared<const recognition::RecognitionModel>(*std::move(model));
   worker_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
   thread_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
-  recognition_ =
-      std::make_unique<RecognitionQueue>(RecognitionQueue::Options{.every_frame = rc.every_frame},
-                                         [this](RecognitionJob& job) { RecognizeOnThread(job); });
+  recognition_ = std::make_unique<RecognitionQueue>(
+      RecognitionQueue::Options{.every_frame = rc.every_frame},
+      [this](RecognitionJob& job) { ObserveOnThread(job); },
+      [this](RecognitionJob& job) { RecognizeOnThread(job); });
 }
 
 void LiveMap::FlushRecognition() {
@@ -87,12 +89,17 @@ bool LiveMap::OfferRecognition(uint64_t sequence, const v1::Frame& frame,
   return every_frame;
 }
 
+void LiveMap::ObserveOnThread(RecognitionJob& job) {
+  if (!Refused().ok()) return;
+  const perception::IntegrationOptions& io = options_.config.integration;
+  job.observed = thread_observer_->Observe(*job.frame, io.min_depth, io.max_depth);
+  job.frame.reset();  // the labels are all the next step needs
+}
+
 void LiveMap::RecognizeOnThread(RecognitionJob& job) {
   if (!Refused().ok()) return;
   const RecognitionConfig& rc = options_.config.recognition;
-  const perception::IntegrationOptions& io = options_.config.integration;
-  absl::StatusOr<recognition::LabelObservations> observed =
-      thread_observer_->Observe(*job.frame, io.min_depth, io.max_depth);
+  const absl::StatusOr<recognition::LabelObservations>& observed = job.observed;
   if (!observed.ok()) {
     LogWarning(absl::StrCat(MapName(id_), ": recognition of frame ", job.sequence, ": ",
                             observed.status().ToString()));

@@ -4,20 +4,28 @@
 
 namespace skimap::server {
 
-RecognitionQueue::RecognitionQueue(const Options& options, std::function<void(RecognitionJob&)> run)
-    : options_(options), run_(std::move(run)), thread_([this] { Loop(); }) {}
+RecognitionQueue::RecognitionQueue(const Options& options,
+                                   std::function<void(RecognitionJob&)> prepare,
+                                   std::function<void(RecognitionJob&)> run)
+    : options_(options),
+      prepare_(std::move(prepare)),
+      run_(std::move(run)),
+      threads_{std::thread([this] { Loop(0); }), std::thread([this] { Loop(1); })} {}
 
 RecognitionQueue::~RecognitionQueue() {
-  std::deque<RecognitionJob> left;
+  std::deque<RecognitionJob> left[2];
   {
     std::lock_guard<std::mutex> lock(mu_);
     stopping_ = true;
-    left.swap(jobs_);
+    left[0].swap(jobs_[0]);
+    left[1].swap(jobs_[1]);
   }
   cv_.notify_all();
-  thread_.join();
-  for (RecognitionJob& job : left) {
-    if (job.done) job.done();
+  for (std::thread& t : threads_) t.join();
+  for (std::deque<RecognitionJob>& jobs : left) {
+    for (RecognitionJob& job : jobs) {
+      if (job.done) job.done();
+    }
   }
 }
 
@@ -28,12 +36,12 @@ void RecognitionQueue::Offer(RecognitionJob job) {
     if (stopping_) {
       dropped = std::move(job.done);
     } else {
-      if (!options_.every_frame && !jobs_.empty()) {
-        dropped = std::move(jobs_.front().done);
-        jobs_.clear();
+      if (!options_.every_frame && !jobs_[0].empty()) {
+        dropped = std::move(jobs_[0].front().done);
+        jobs_[0].clear();
         skipped_.fetch_add(1, std::memory_order_relaxed);
       }
-      jobs_.push_back(std::move(job));
+      jobs_[0].push_back(std::move(job));
     }
   }
   cv_.notify_all();
@@ -42,27 +50,50 @@ void RecognitionQueue::Offer(RecognitionJob job) {
 
 void RecognitionQueue::Flush() {
   std::unique_lock<std::mutex> lock(mu_);
-  cv_.wait(lock, [this] { return stopping_ || (jobs_.empty() && !running_); });
+  cv_.wait(lock, [this] {
+    return stopping_ || (jobs_[0].empty() && jobs_[1].empty() && !running_[0] && !running_[1]);
+  });
 }
 
-void RecognitionQueue::Loop() {
+void RecognitionQueue::Loop(int step) {
   for (;;) {
     RecognitionJob job;
     {
       std::unique_lock<std::mutex> lock(mu_);
-      cv_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
+      cv_.wait(lock, [&] { return stopping_ || !jobs_[step].empty(); });
       if (stopping_) return;
-      job = std::move(jobs_.front());
-      jobs_.pop_front();
-      running_ = true;
+      job = std::move(jobs_[step].front());
+      jobs_[step].pop_front();
+      running_[step] = true;
     }
-    run_(job);
-    if (job.done) job.done();
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      running_ = false;
+    if (step == 0) {
+      prepare_(job);
+      std::function<void()> dropped;  // the job's done when stopping, or a replaced job's
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        running_[0] = false;
+        if (stopping_) {
+          dropped = std::move(job.done);
+        } else {
+          if (!options_.every_frame && !jobs_[1].empty()) {
+            dropped = std::move(jobs_[1].front().done);
+            jobs_[1].clear();
+            skipped_.fetch_add(1, std::memory_order_relaxed);
+          }
+          jobs_[1].push_back(std::move(job));
+        }
+      }
+      cv_.notify_all();
+      if (dropped) dropped();
+    } else {
+      run_(job);
+      if (job.done) job.done();  // before the job counts as finished (Flush)
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        running_[1] = false;
+      }
+      cv_.notify_all();
     }
-    cv_.notify_all();
   }
 }
 

@@ -1,18 +1,23 @@
-// RecognitionQueue: the thread that runs a map's recognition stage behind its mapping
+// RecognitionQueue: the two threads that run a map's recognition stage behind its mapping
 // (docs/recognition.md, "Scheduling"). Jobs are frames that were integrated and
-// journaled; the queue takes them by the map's policy:
-//   - newest: one pending job at most; a new frame replaces a pending one, which is
-//     skipped (counted). Mapping and its acks never wait.
+// journaled. Each job goes through two steps in order: `prepare` (the frame's features and
+// their classes: it reads the job's frame only) on the first thread, then `run` (labels
+// fused, hypotheses voted, instances reconciled) on the second; so frame n+1 is prepared
+// while frame n runs, and recognition uses two cores when mapping leaves them. The queue
+// takes jobs by the map's policy:
+//   - newest: one job at most waits before each step; a newer one replaces it, and the
+//     replaced one is skipped (counted). Mapping and its acks never wait.
 //   - every frame: every job, in order; each job's `done` (the frame's ack) runs after
-//     the job, so a client is held to the recognition rate by its own in-flight window.
+//     `run`, so a client is held to the recognition rate by its own in-flight window.
 // Revotes (after UpdatePoses) are not used: see LiveMap. A job whose map goes away before
 // it runs still gets its `done` call (with what was recognised so far).
 //
-//   RecognitionQueue q({.every_frame = false}, [&](RecognitionJob& job) { Recognize(job); });
+//   RecognitionQueue q({.every_frame = false}, [&](RecognitionJob& job) { Observe(job); },
+//                      [&](RecognitionJob& job) { Recognize(job); });
 //   q.Offer(std::move(job));
 //
-// Thread safety: Offer may be called from any thread; the run function runs on the queue's
-// own thread, one job at a time.
+// Thread safety: Offer may be called from any thread; `prepare` runs on the queue's first
+// thread and `run` on its second, one job at a time each.
 #ifndef SERVER_MAPS_RECOGNITION_QUEUE_H_
 #define SERVER_MAPS_RECOGNITION_QUEUE_H_
 
@@ -25,6 +30,8 @@
 #include <mutex>
 #include <thread>
 
+#include "absl/status/statusor.h"
+#include "perception/recognition/label_observer.h"
 #include "perception/rgbd_frame.h"
 
 namespace skimap::server {
@@ -34,6 +41,8 @@ struct RecognitionJob {
   int64_t time_us = 0;  // the frame's timestamp (unix µs), 0 if it had none
   std::shared_ptr<const perception::RgbdFrame> frame;
   std::function<void()> done;  // every-frame policy: the frame's ack; may be null
+  // Set by `prepare` for `run`: the frame's label observations, or why there are none.
+  absl::StatusOr<recognition::LabelObservations> observed = absl::UnknownError("not prepared");
 };
 
 class RecognitionQueue {
@@ -41,31 +50,34 @@ class RecognitionQueue {
   struct Options {
     bool every_frame = false;
   };
-  // Starts the thread. `run` is called with each job taken (then the job's done).
-  RecognitionQueue(const Options& options, std::function<void(RecognitionJob&)> run);
-  // Stops taking jobs, waits for the running one, calls `done` of the pending ones.
+  // Starts the threads. Each job taken is passed to `prepare`, then to `run` (then the
+  // job's done is called).
+  RecognitionQueue(const Options& options, std::function<void(RecognitionJob&)> prepare,
+                   std::function<void(RecognitionJob&)> run);
+  // Stops taking jobs, waits for the running ones, calls `done` of the pending ones.
   ~RecognitionQueue();
   RecognitionQueue(const RecognitionQueue&) = delete;
   RecognitionQueue& operator=(const RecognitionQueue&) = delete;
 
   void Offer(RecognitionJob job);
-  // Jobs replaced before they ran (policy newest).
+  // Jobs replaced before they ran (policy newest), before either step.
   uint64_t skipped() const { return skipped_.load(std::memory_order_relaxed); }
-  // Returns once every job offered before the call has run (tests, clean stops).
+  // Returns once every job offered before the call has run both steps (tests, clean stops).
   void Flush();
 
  private:
-  void Loop();
+  // The loop of step 0 (prepare) or step 1 (run).
+  void Loop(int step);
 
   const Options options_;
-  const std::function<void(RecognitionJob&)> run_;
+  const std::function<void(RecognitionJob&)> prepare_, run_;
   std::atomic<uint64_t> skipped_{0};
   std::mutex mu_;
   std::condition_variable cv_;
-  std::deque<RecognitionJob> jobs_;  // guarded by mu_
-  bool running_ = false;             // guarded by mu_: a job is being run
-  bool stopping_ = false;            // guarded by mu_
-  std::thread thread_;
+  std::deque<RecognitionJob> jobs_[2];  // guarded by mu_: waiting for step 0 / step 1
+  bool running_[2] = {false, false};    // guarded by mu_: a job is in step 0 / step 1
+  bool stopping_ = false;               // guarded by mu_
+  std::thread threads_[2];
 };
 
 }  // namespace skimap::server
