@@ -19,9 +19,6 @@ using recognition::LabelMatch;
 constexpr float kMinEstimateScore = 3;  // inlier label weight of an estimate worth keeping
 
 Eigen::Vector3f PositionOf(const Instance& i) { return {i.t[0], i.t[1], i.t[2]}; }
-Eigen::Quaternionf RotationOf(const Instance& i) {
-  return Eigen::Quaternionf(i.q[0], i.q[1], i.q[2], i.q[3]);
-}
 Point3 ToPoint(const Eigen::Vector3f& p) { return {p.x(), p.y(), p.z()}; }
 Eigen::Vector3f FromPoint(const Point3& p) { return Eigen::Vector3f(p.x, p.y, p.z); }
 

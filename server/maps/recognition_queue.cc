@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "skimap/thread_pool.h"
+
 namespace skimap::server {
 
 RecognitionQueue::RecognitionQueue(const Options& options,
@@ -56,6 +58,7 @@ void RecognitionQueue::Flush() {
 }
 
 void RecognitionQueue::Loop(int step) {
+  SetThreadNice(options_.nice);
   for (;;) {
     RecognitionJob job;
     {

@@ -49,6 +49,7 @@ class RecognitionQueue {
  public:
   struct Options {
     bool every_frame = false;
+    int nice = 0;  // the threads' niceness (skimap/thread_pool.h SetThreadNice)
   };
   // Starts the threads. Each job taken is passed to `prepare`, then to `run` (then the
   // job's done is called).
