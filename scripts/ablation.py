@@ -187,10 +187,16 @@ def write_outputs(args, runs, summaries, out):
                         key=lambda r: values.index(r[key]))
         x = list(range(len(chosen))) if key == "detector" else [r[key] for r in chosen]
         fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
-        ax.plot(x, [r["precision"] for r in chosen], "o-", label="precision")
-        ax.plot(x, [r["recall"] for r in chosen], "s-", label="recall")
+        series = [("precision", "o-"), ("recall", "s-")]
         if all(r["ar_mssd"] != "" for r in chosen):
-            ax.plot(x, [r["ar_mssd"] for r in chosen], "^-", label="AR_MSSD")
+            series.append(("ar_mssd", "^-"))
+        for k, (name, style) in enumerate(series):
+            legend = "AR_MSSD" if name == "ar_mssd" else name
+            values = [r[name] for r in chosen]
+            if key == "detector":  # categories: grouped bars
+                ax.bar([v + (k - 1) * 0.25 for v in x], values, width=0.25, label=legend)
+            else:
+                ax.plot(x, values, style, label=legend)
         ax.set_ylim(0, 1.05)
         ax.set_xlabel(label)
         ax.set_ylabel("score (3 cm / 10°)")
@@ -200,8 +206,8 @@ def write_outputs(args, runs, summaries, out):
             ax.set_xticks(x)
         ax.grid(alpha=0.3)
         fps = ax.twinx()
-        fps.plot(x, [r["frames_per_second"] for r in chosen], "k--", alpha=0.5,
-                 label="frames/s")
+        fps.plot(x, [r["frames_per_second"] for r in chosen], "kD" if key == "detector" else "k--",
+                 alpha=0.5, label="frames/s")
         fps.set_ylabel("frames/s (whole pipeline)")
         fps.set_ylim(0, max(r["frames_per_second"] for r in chosen) * 1.2 or 1)
         lines = ax.get_legend_handles_labels()

@@ -3,7 +3,9 @@
 one-factor grid run through `skimap eval` against the skimapd the script starts, and its
 CSV, per-run summaries and PNG plots checked. Environment: SKIMAP_CLI, SKIMAPD, SKIMAP_SIM
 (the binaries), ABLATION_SCRIPT (scripts/ablation.py)."""
+import argparse
 import csv
+import importlib.util
 import json
 import os
 import subprocess
@@ -83,6 +85,31 @@ class AblationTest(unittest.TestCase):
         again = ablation(self.dataset, f"--out={self.out}", "--resume", *self.grid)
         self.assertEqual(again.returncode, 0, again.stderr)
         self.assertEqual(again.stdout.count(": kept "), 4, again.stdout)
+
+    def test_two_detectors_get_a_detector_plot(self):
+        # write_outputs alone on made-up summaries (no server): each detector's base run.
+        spec = importlib.util.spec_from_file_location("ablation", ENV["ABLATION_SCRIPT"])
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        args = argparse.Namespace(dataset=self.dataset, detectors=["SIFT", "ORB"], classes=[300],
+                                  trees=[24], every=[1], base=("SIFT", 300, 24), single_view=False)
+        runs = module.plan(args)
+        self.assertEqual([r[0] for r in runs], ["SIFT_c300_t24_e1", "ORB_c300_t24_e1"])
+        detections = [{"scene": "000001", "obj_id": 1, "score": 200.0, "true_positive": True},
+                      {"scene": "000001", "obj_id": 2, "score": 120.0, "true_positive": False}]
+        summary = {"frames": 10, "frames_per_second": 5.0, "truths": 2,
+                   "multi_view": {"instances": 2, "true_positives": 1, "precision": 0.5,
+                                  "recall": 0.5, "ar_mssd": None, "detections": detections}}
+        out = os.path.join(self.tmp.name, "two_detectors")
+        os.makedirs(out)
+        rows = module.write_outputs(args, runs, {r[0]: summary for r in runs}, out)
+        self.assertEqual([r["detector"] for r in rows], ["SIFT", "ORB"])
+        self.assertEqual(rows[0]["ar_mssd"], "")  # no models: no AR_MSSD
+        with open(os.path.join(out, "ablation_detector.png"), "rb") as f:
+            self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+        # Precision-recall points: the 200-score instance alone (recall 0.5, precision 1),
+        # then both (recall 0.5, precision 0.5).
+        self.assertEqual(module.pr_curve(detections, 2), [(0.5, 1.0, 200.0), (0.5, 0.5, 120.0)])
 
     def test_bad_arguments_are_named(self):
         bad = ablation(self.dataset, f"--out={self.out}/bad", "--detectors=ORB",
