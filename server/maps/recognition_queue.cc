@@ -63,12 +63,18 @@ void RecognitionQueue::Loop(int step) {
     RecognitionJob job;
     {
       std::unique_lock<std::mutex> lock(mu_);
-      cv_.wait(lock, [&] { return stopping_ || !jobs_[step].empty(); });
+      // Newest: a frame is prepared only once no prepared one waits, so the preparing
+      // step never burns a core on frames the running step would skip.
+      cv_.wait(lock, [&] {
+        return stopping_ || (!jobs_[step].empty() &&
+                             (step == 1 || options_.every_frame || jobs_[1].empty()));
+      });
       if (stopping_) return;
       job = std::move(jobs_[step].front());
       jobs_[step].pop_front();
       running_[step] = true;
     }
+    if (step == 1) cv_.notify_all();  // the waiting slot is free: step 0 may prepare
     if (step == 0) {
       prepare_(job);
       std::function<void()> dropped;  // the job's done when stopping, or a replaced job's

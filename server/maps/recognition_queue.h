@@ -6,7 +6,8 @@
 // while frame n runs, and recognition uses two cores when mapping leaves them. The queue
 // takes jobs by the map's policy:
 //   - newest: one job at most waits before each step; a newer one replaces it, and the
-//     replaced one is skipped (counted). Mapping and its acks never wait.
+//     replaced one is skipped (counted). A job is prepared only when no prepared job
+//     waits (no work on frames that would be skipped). Mapping and its acks never wait.
 //   - every frame: every job, in order; each job's `done` (the frame's ack) runs after
 //     `run`, so a client is held to the recognition rate by its own in-flight window.
 // Revotes (after UpdatePoses) are not used: see LiveMap. A job whose map goes away before
