@@ -66,8 +66,8 @@ void RecognitionQueue::Loop(int step) {
       // Newest: a frame is prepared only once no prepared one waits, so the preparing
       // step never burns a core on frames the running step would skip.
       cv_.wait(lock, [&] {
-        return stopping_ || (!jobs_[step].empty() &&
-                             (step == 1 || options_.every_frame || jobs_[1].empty()));
+        return stopping_ ||
+               (!jobs_[step].empty() && (step == 1 || options_.every_frame || jobs_[1].empty()));
       });
       if (stopping_) return;
       job = std::move(jobs_[step].front());
