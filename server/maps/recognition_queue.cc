@@ -31,20 +31,23 @@ RecognitionQueue::~RecognitionQueue() {
   }
 }
 
+std::function<void()> RecognitionQueue::EnqueueLocked(int step, RecognitionJob job) {
+  if (stopping_) return std::move(job.done);
+  std::function<void()> dropped;
+  if (!options_.every_frame && !jobs_[step].empty()) {
+    dropped = std::move(jobs_[step].front().done);
+    jobs_[step].clear();
+    skipped_.fetch_add(1, std::memory_order_relaxed);
+  }
+  jobs_[step].push_back(std::move(job));
+  return dropped;
+}
+
 void RecognitionQueue::Offer(RecognitionJob job) {
   std::function<void()> dropped;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (stopping_) {
-      dropped = std::move(job.done);
-    } else {
-      if (!options_.every_frame && !jobs_[0].empty()) {
-        dropped = std::move(jobs_[0].front().done);
-        jobs_[0].clear();
-        skipped_.fetch_add(1, std::memory_order_relaxed);
-      }
-      jobs_[0].push_back(std::move(job));
-    }
+    dropped = EnqueueLocked(0, std::move(job));
   }
   cv_.notify_all();
   if (dropped) dropped();
@@ -77,20 +80,11 @@ void RecognitionQueue::Loop(int step) {
     if (step == 1) cv_.notify_all();  // the waiting slot is free: step 0 may prepare
     if (step == 0) {
       prepare_(job);
-      std::function<void()> dropped;  // the job's done when stopping, or a replaced job's
+      std::function<void()> dropped;
       {
         std::lock_guard<std::mutex> lock(mu_);
         running_[0] = false;
-        if (stopping_) {
-          dropped = std::move(job.done);
-        } else {
-          if (!options_.every_frame && !jobs_[1].empty()) {
-            dropped = std::move(jobs_[1].front().done);
-            jobs_[1].clear();
-            skipped_.fetch_add(1, std::memory_order_relaxed);
-          }
-          jobs_[1].push_back(std::move(job));
-        }
+        dropped = EnqueueLocked(1, std::move(job));
       }
       cv_.notify_all();
       if (dropped) dropped();

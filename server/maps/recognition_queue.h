@@ -70,6 +70,10 @@ class RecognitionQueue {
  private:
   // The loop of step 0 (prepare) or step 1 (run).
   void Loop(int step);
+  // Queues `job` before `step` by the policy (newest: it replaces a waiting job). Returns
+  // the done to call outside the lock: the replaced job's, or the job's own when stopping.
+  // REQUIRES: mu_ held.
+  std::function<void()> EnqueueLocked(int step, RecognitionJob job);
 
   const Options options_;
   const std::function<void(RecognitionJob&)> prepare_, run_;
