@@ -74,7 +74,7 @@ void RunRebuildAndQuery(benchmark::State& state) {
   state.counters["points"] = static_cast<double>(index.Voxels());
 }
 
-const bool registered = [] {
+const bool nanoflann_registered = [] {
   RegisterRadius<NanoflannAdapter>("Nanoflann");
   RegisterMemory<NanoflannAdapter>("Nanoflann", /*big=*/false);
   benchmark::RegisterBenchmark("BM_RadiusSurfaceRebuild_Nanoflann", RunRebuildAndQuery)

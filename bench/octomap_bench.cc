@@ -236,7 +236,7 @@ void RunInsertRays(benchmark::State& state, bool real) {
   state.counters["points"] = static_cast<double>(points) / static_cast<double>(state.iterations());
 }
 
-const bool registered = [] {
+const bool octomap_registered = [] {
   using PerPoint = OctoMapAdapter<OctoMapInsert::kPerPoint>;
   RegisterInserts<PerPoint>("OctoMap");
   RegisterInserts<OctoMapAdapter<OctoMapInsert::kKeySet>>("OctoMapKeySet");

@@ -139,7 +139,7 @@ class OpenVdbAdapter {
   mutable std::vector<std::pair<openvdb::Coord, float>> hits_;  // reused result buffer
 };
 
-const bool registered = [] {
+const bool openvdb_registered = [] {
   RegisterInserts<OpenVdbAdapter>("OpenVdb");
   RegisterMergedInserts<OpenVdbAdapter>("OpenVdb");
   RegisterRadius<OpenVdbAdapter>("OpenVdb");

@@ -47,7 +47,7 @@ class PclOctreeAdapter {
   mutable std::vector<float> sqr_dists_;
 };
 
-const bool registered = [] {
+const bool pcl_registered = [] {
   RegisterRadius<PclOctreeAdapter>("PclOctree");
   RegisterMemory<PclOctreeAdapter>("PclOctree", /*big=*/false);
   return true;

@@ -114,7 +114,7 @@ class SkiMapAdapter {
   mutable std::vector<Hit> hits_;  // reused result buffer
 };
 
-const bool registered = [] {
+const bool skimap_registered = [] {
   RegisterInserts<SkiMapAdapter<0>>("SkiMap");
   RegisterInserts<SkiMapAdapter<1>>("SkiMapPool");
   RegisterMergedInserts<SkiMapAdapter<0>>("SkiMap");
