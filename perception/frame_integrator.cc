@@ -3,6 +3,8 @@
 #include <cmath>
 #include <vector>
 
+#include "perception/row_projection.h"
+
 namespace skimap::perception {
 
 absl::Status ValidateIntegrationOptions(const IntegrationOptions& o) {
@@ -56,38 +58,44 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   // (Pointers: the pool's threads must write this thread's arrays, not their own.)
   uint32_t* const in_rows = row_in.data();
   uint32_t* const out_rows = row_out.data();
-  // One row: z * (row_base + col_term) + t per pixel, the same arithmetic per point as a
-  // per-pixel Eigen expression, then Grid::AxisToKeyBranchFree (so the same keys as
-  // Grid::ToKey), branch-free over the row. Everything the loop reads is a local or a
-  // restrict pointer, so GCC vectorises it.
+  // One row: ProjectRow (perception/row_projection.h) computes its keys, the same as
+  // Grid::ToKey's, 4 pixels at a time where the CPU has AVX2; strided rows are gathered
+  // into a contiguous row first.
   const double tx = t.x(), ty = t.y(), tz = t.z();
   const double ox = grid.origin().x, oy = grid.origin().y, oz = grid.origin().z;
+  const double inv_resolution = grid.inv_resolution();
   using Batch = VoxelBatch<RGBWeightedVoxel>;
+  static_assert(Batch::kUse == kRowUse && Batch::kNoKey == kRowNoKey && Batch::kSkip == kRowSkip);
   auto fill_row = [&, tx, ty, tz, ox, oy, oz, scale, min_depth, max_depth, in_rows, out_rows](
                       size_t r, Batch::KeyRow keys, RGBWeightedVoxel* obs) {
     const size_t first = r * stride * cam.width;
-    const uint16_t* __restrict row = depth + first;
-    const double* __restrict xs = cx;
-    const double* __restrict ys = cy;
-    const double* __restrict zs = cz;
-    const double bx = bases[r].x(), by = bases[r].y(), bz = bases[r].z();
-    const int n = cols;
-    const size_t step = size_t(stride);
-    uint32_t in_range = 0, out_of_range = 0;
-    for (int c = 0; c < n; ++c) {
-      const uint16_t d = row[size_t(c) * step];
-      const double z = d * scale;
-      const bool valid = d != 0, inside = (z >= min_depth) & (z <= max_depth);
-      in_range += valid & inside;
-      out_of_range += valid & !inside;
-      // All three run (no short circuit): every key is written, branch-free.
-      const int has_key = int(grid.AxisToKeyBranchFree(z * (bx + xs[c]) + tx, ox, &keys.x[c])) &
-                          int(grid.AxisToKeyBranchFree(z * (by + ys[c]) + ty, oy, &keys.y[c])) &
-                          int(grid.AxisToKeyBranchFree(z * (bz + zs[c]) + tz, oz, &keys.z[c]));
-      keys.state[c] =
-          static_cast<uint8_t>((valid & inside) * (has_key ? Batch::kUse : Batch::kNoKey));
+    const uint16_t* row = depth + first;
+    if (stride > 1) {
+      thread_local std::vector<uint16_t> gathered;
+      gathered.resize(cols);
+      for (int c = 0; c < cols; ++c) gathered[c] = row[size_t(c) * stride];
+      row = gathered.data();
     }
-    in_rows[r] = in_range, out_rows[r] = out_of_range;
+    const RowProjection projection{.depth = row,
+                                   .cols = cols,
+                                   .scale = scale,
+                                   .min_depth = min_depth,
+                                   .max_depth = max_depth,
+                                   .ray_x = cx,
+                                   .ray_y = cy,
+                                   .ray_z = cz,
+                                   .base_x = bases[r].x(),
+                                   .base_y = bases[r].y(),
+                                   .base_z = bases[r].z(),
+                                   .tx = tx,
+                                   .ty = ty,
+                                   .tz = tz,
+                                   .ox = ox,
+                                   .oy = oy,
+                                   .oz = oz,
+                                   .inv_resolution = inv_resolution};
+    const RowCounts counts = ProjectRow(projection, keys.x, keys.y, keys.z, keys.state);
+    in_rows[r] = counts.in_range, out_rows[r] = counts.out_of_range;
     if (rgb != nullptr) {
       const uint8_t* px = rgb + 3 * first;
       for (int c = 0; c < cols; ++c) {

@@ -68,6 +68,7 @@ class Grid {
       : resolution_(resolution), inv_resolution_(1.0 / resolution), origin_(origin) {}
 
   double resolution() const { return resolution_; }
+  double inv_resolution() const { return inv_resolution_; }  // the factor keys use
   const Point3& origin() const { return origin_; }
 
   // Key of the voxel holding world coordinate v on one axis; false if out of key range.
