@@ -36,6 +36,8 @@ struct Codec {
   v1::DepthEncoding depth;
   v1::ColorEncoding color;
 };
+inline constexpr Codec kZstdJpeg{"zstd + JPEG", v1::DEPTH_ENCODING_ZSTD,
+                                 v1::COLOR_ENCODING_JPEG};  // the client library's default
 inline constexpr Codec kRvlJpeg{"RVL + JPEG", v1::DEPTH_ENCODING_RVL, v1::COLOR_ENCODING_JPEG};
 inline constexpr Codec kPng16Jpeg{"PNG16 + JPEG", v1::DEPTH_ENCODING_PNG16,
                                   v1::COLOR_ENCODING_JPEG};

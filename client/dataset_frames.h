@@ -23,10 +23,10 @@ namespace skimap::client {
 absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string& path);
 
 // Reads the frame's files into a Frame for `map_name` with `sequence`, depth with
-// `depth_encoding` (PNG16: the file's bytes as stored; RVL / RAW_U16: decoded and
+// `depth_encoding` (PNG16: the file's bytes as stored; ZSTD / RVL / RAW_U16: decoded and
 // re-encoded). FailedPrecondition if the frame has no pose or no depth image; NotFound for
 // a missing file; InvalidArgument if the depth file is not a 16-bit PNG or the encoding is not one
-// of those three.
+// of those four.
 absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& frame, const std::string& map_name,
                                      uint64_t sequence,
                                      v1::DepthEncoding depth_encoding = kDefaultDepthEncoding);

@@ -1,9 +1,10 @@
-// Depth images onto API frames, as a client sends them: RVL by default (the fastest
-// lossless codec both to encode here and to decode on the server: docs/api.md, "Depth and
-// colour encodings"), or 16-bit PNG / raw uint16 when asked.
+// Depth images onto API frames, as a client sends them: zstd (level 1) of the raw
+// little-endian pixels by default (of the lossless codecs the fastest to decode on the
+// server and the smallest on the wire, and as fast as RVL to encode here: docs/api.md,
+// "Depth and colour encodings"), or RVL, 16-bit PNG or raw uint16 when asked.
 //
 //   v1::Frame frame;  // intrinsics, pose, depth_scale set by the caller
-//   absl::Status s = SetFrameDepth(pixels.data(), 640, 480, &frame);  // RVL
+//   absl::Status s = SetFrameDepth(pixels.data(), 640, 480, &frame);  // zstd
 //
 // Thread safety: pure functions of their arguments.
 #ifndef CLIENT_FRAME_DEPTH_H_
@@ -17,12 +18,12 @@
 namespace skimap::client {
 
 // The depth encoding clients send unless told otherwise.
-inline constexpr v1::DepthEncoding kDefaultDepthEncoding = v1::DEPTH_ENCODING_RVL;
+inline constexpr v1::DepthEncoding kDefaultDepthEncoding = v1::DEPTH_ENCODING_ZSTD;
 
 // Encodes width x height depth pixels (row-major, sensor units, 0 = no measurement) with
 // `encoding` into frame->depth and sets frame->depth_encoding. InvalidArgument for a size
-// outside 1..8192 or an encoding this library does not write (ZSTD: encode it yourself);
-// Internal if PNG encoding fails. Leaves the frame unchanged on error.
+// outside 1..8192 or an unknown encoding ("depth_encoding"); Internal if PNG or zstd
+// encoding fails. Leaves the frame unchanged on error.
 absl::Status SetFrameDepth(const uint16_t* pixels, int width, int height, v1::Frame* frame,
                            v1::DepthEncoding encoding = kDefaultDepthEncoding);
 

@@ -2,7 +2,7 @@
 //
 //   skimap [--server=localhost:50051] maps ls | maps create ID [--resolution=0.05]
 //                                     | maps rm ID | maps info ID
-//   skimap stream DATASET --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=rvl]
+//   skimap stream DATASET --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=zstd]
 //                                              (creates ID if missing)
 //   skimap grid --map=ID -o FILE.yaml          ROS map_server PGM + YAML (trinary)
 //   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
@@ -44,9 +44,9 @@ ABSL_FLAG(std::string, o, "", "output file");
 ABSL_FLAG(double, fps, 0, "stream: frames per second (0 = as fast as the server takes them)");
 ABSL_FLAG(double, resolution, 0.05, "maps create / stream: voxel size in metres");
 ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
-ABSL_FLAG(std::string, depth_encoding, "rvl",
-          "stream: depth on the wire: rvl (fastest lossless, the default), png16 (the dataset's "
-          "files as stored) or raw");
+ABSL_FLAG(std::string, depth_encoding, "zstd",
+          "stream: depth on the wire, lossless: zstd (the fastest for the server, the default), "
+          "rvl, png16 (the dataset's files as stored) or raw");
 ABSL_FLAG(bool, with_journal, false,
           "export: also the map's journal (UpdatePoses then works on the imported frames)");
 ABSL_FLAG(std::string, as, "", "import: the new map's id (default: the id in the file)");
@@ -343,14 +343,16 @@ int main(int argc, char** argv) {
                                              recognition + "\""));
     }
     const std::string depth_encoding = absl::GetFlag(FLAGS_depth_encoding);
-    if (depth_encoding == "rvl") {
+    if (depth_encoding == "zstd") {
+      options.depth_encoding = skimap::v1::DEPTH_ENCODING_ZSTD;
+    } else if (depth_encoding == "rvl") {
       options.depth_encoding = skimap::v1::DEPTH_ENCODING_RVL;
     } else if (depth_encoding == "png16") {
       options.depth_encoding = skimap::v1::DEPTH_ENCODING_PNG16;
     } else if (depth_encoding == "raw") {
       options.depth_encoding = skimap::v1::DEPTH_ENCODING_RAW_U16;
     } else {
-      return Fail(absl::InvalidArgumentError("--depth_encoding must be rvl, png16 or raw"));
+      return Fail(absl::InvalidArgumentError("--depth_encoding must be zstd, rvl, png16 or raw"));
     }
     absl::Status s = skimap::client::StreamDataset(*client, args[2], options);
     return s.ok() ? 0 : Fail(s);

@@ -1,5 +1,6 @@
 // End to end with processes: skimapd as a child process on a real port, frames from the
-// client library, files from the `skimap` CLI, clean stop on SIGTERM.
+// client library, files from the `skimap` CLI, clean stop on SIGTERM; `skimap stream` of
+// real sensor frames with each depth encoding (zstd by default), a bad one refused by name.
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -63,6 +64,49 @@ TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
   ASSERT_EQ(waitpid(pid, &status, 0), pid);
   EXPECT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ProcessTest, CliStreamsRealFramesInEveryDepthEncodingAndRefusesAnUnknownOne) {
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / absl::StrCat("skimap_stream_cli_", getpid()))
+          .string();
+  std::filesystem::create_directories(dir);
+  const std::string address = absl::StrCat("127.0.0.1:", FreePort());
+  const pid_t pid = SpawnProcess({SKIMAPD_PATH, "--address=" + address, "--data_dir=" + dir + "/d",
+                                  "--worker_threads=1", "--http_address="});
+  ASSERT_GE(pid, 0);
+  std::unique_ptr<client::MapClient> client = client::MapClient::Connect(address);
+  ASSERT_TRUE(client->WaitForServer(absl::Seconds(20)).ok());
+  const std::string scene = SKIMAP_YCBV_DIR "/test/000000";
+  auto stream = [&](const std::string& map, const std::string& flags) {
+    const std::string command =
+        absl::StrCat(SKIMAP_CLI_PATH, " --server=", address, " stream ", scene, " --map=", map,
+                     " --resolution=0.01 ", flags, " > ", dir, "/out.txt 2>&1");
+    return std::system(command.c_str());
+  };
+  // Every encoding gives the same map: depth is lossless in each.
+  uint64_t voxels = 0;
+  for (const std::string encoding : {"", "zstd", "rvl", "png16", "raw"}) {
+    const std::string map = encoding.empty() ? "default" : encoding;
+    ASSERT_EQ(stream(map, encoding.empty() ? "" : "--depth_encoding=" + encoding), 0) << map;
+    absl::StatusOr<v1::Map> m = client->GetMap("maps/" + map);
+    ASSERT_TRUE(m.ok()) << m.status();
+    EXPECT_EQ(m->stats().frames(), 10u) << map;
+    if (voxels == 0) voxels = m->stats().voxels();
+    EXPECT_EQ(m->stats().voxels(), voxels) << map;
+  }
+  EXPECT_GT(voxels, 1000u);
+  EXPECT_NE(stream("bad", "--depth_encoding=lzw"), 0);
+  std::ifstream out(dir + "/out.txt");
+  std::stringstream text;
+  text << out.rdbuf();
+  EXPECT_NE(text.str().find("--depth_encoding"), std::string::npos) << text.str();
+  EXPECT_FALSE(client->GetMap("maps/bad").ok());  // nothing created
+
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
   std::filesystem::remove_all(dir);
 }
 
