@@ -27,7 +27,8 @@
 //     the faster. Every timed run (ours and Open3D's) runs on a thread of its own, as a
 //     map's worker: on the main thread, beside Open3D's OpenMP team, both were slower.
 //     Re-observed space: the same frames again into a map / volume that holds them (ours
-//     RVL + JPEG; Open3D both thread settings), Open3D's usual use.
+//     zstd + JPEG, the client library's default; Open3D both thread settings), Open3D's
+//     usual use.
 //  3. Stream throughput, new space: `laps` x 10 frames, each frame's pose moved 10 m
 //     further along x (so every frame lands in new space), submitted with `window` frames
 //     in flight into one map; frames/s. Open3D integrates the same frames into one volume.
@@ -247,15 +248,15 @@ std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> NewVolume(doubl
 // 2c. Per frame into a running map, new space: the server's steady state. One map (one
 // Open3D volume per thread setting) takes a warm-up lap of the 10 frames, then reps x 10
 // more, one at a time (the next is sent after the previous one's ack), every frame moved
-// 10 m further along x so that all its voxels (volume units) are new. Ours: RVL + JPEG
-// through LiveMap::SubmitFrame (decode included), and the same frames already decoded
+// 10 m further along x so that all its voxels (volume units) are new. Ours: zstd + JPEG
+// (the client library's default) through LiveMap::SubmitFrame (decode included), and the same frames already decoded
 // through a running MapState's stages (decode excluded); Open3D: Integrate of the decoded
 // frames into its running volume.
 void RunningMap(const std::vector<RealFrame>& frames, const server::MapConfig& config,
                 const server::LiveMap::Options& map_options, ThreadPool& pool,
                 server::WorkQueue& runner, int reps) {
   const int laps = reps + 1;  // the first lap warms up and is not timed
-  const auto encoded = Encode(frames, kRvlJpeg, laps, 10.0);
+  const auto encoded = Encode(frames, kZstdJpeg, laps, 10.0);
   std::vector<perception::RgbdFrame> decoded;
   for (const auto& f : encoded) decoded.push_back(*server::DecodeFrame(*f));
   const size_t warm = frames.size();
@@ -310,7 +311,7 @@ void RunningMap(const std::vector<RealFrame>& frames, const server::MapConfig& c
       "frames after a warm-up lap)\n\n| variant | ms (median) | p90 | / Open3D |\n"
       "|---|---|---|---|\n",
       config.resolution * 100, reps * int(frames.size()));
-  std::printf("| ours, RVL + JPEG, decode included | %.2f | %.2f | %s |\n", ours.Median(),
+  std::printf("| ours, zstd + JPEG, decode included | %.2f | %.2f | %s |\n", ours.Median(),
               ours.Quantile(0.9), ratio(ours.Median()).c_str());
   std::printf("| ours, decode excluded | %.2f | %.2f | %s |\n", excluded.Median(),
               excluded.Quantile(0.9), ratio(excluded.Median()).c_str());
@@ -349,6 +350,7 @@ void Run() {
       {"RVL + PNG", v1::DEPTH_ENCODING_RVL, v1::COLOR_ENCODING_PNG},
       {"RVL + JPEG", v1::DEPTH_ENCODING_RVL, v1::COLOR_ENCODING_JPEG},
   };
+  constexpr size_t kDefaultCodec = 3;  // zstd + JPEG, the client library's default
   std::vector<std::vector<std::shared_ptr<const v1::Frame>>> single, stream;
   for (const Codec& c : codecs) {
     single.push_back(Encode(frames, c, 1, 0));
@@ -459,11 +461,11 @@ void Run() {
     }
 
     // 2b. Re-observed space: the same frames again into a map (a volume) that holds them
-    // already, RVL + JPEG for ours (the CLI's default), team and one thread for Open3D.
+    // already, zstd + JPEG for ours (the client's default), team and one thread for Open3D.
     if (want("reobserved")) {
       Samples warm_ours, warm_o3d, warm_o3d_one;
       server::LiveMap map("bench", map_options);
-      Stream(map, single[5], window);
+      Stream(map, single[kDefaultCodec], window);
 #ifdef SKIMAP_BENCH_OPEN3D
       std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> volumes[2];
       for (const int threads : {0, 1}) {
@@ -479,7 +481,7 @@ void Run() {
       uint64_t sequence = 1000;
       for (int r = 0; r < reps; ++r) {
         for (size_t i = 0; i < frames.size(); ++i) {
-          auto again = std::make_shared<v1::Frame>(*single[5][i]);
+          auto again = std::make_shared<v1::Frame>(*single[kDefaultCodec][i]);
           again->set_sequence(++sequence);
           std::promise<absl::StatusOr<v1::FrameAck>> done;
           const Clock::time_point t0 = Clock::now();
@@ -507,7 +509,7 @@ void Run() {
           "\n### Per frame, re-observed space, %.0f cm (median / p90 ms over %d samples)"
           "\n\n| variant | ms (median) | p90 | / Open3D |\n|---|---|---|---|\n",
           res * 100, reps * int(frames.size()));
-      std::printf("| ours, RVL + JPEG, decode included | %.2f | %.2f | %s |\n", warm_ours.Median(),
+      std::printf("| ours, zstd + JPEG, decode included | %.2f | %.2f | %s |\n", warm_ours.Median(),
                   warm_ours.Quantile(0.9),
                   peer > 0 ? absl::StrFormat("%.2f", warm_ours.Median() / peer).c_str() : "-");
       if (peer > 0) {

@@ -81,17 +81,6 @@ class Grid {
     *key = i;
     return true;
   }
-  // AxisToKey without branches, for loops the compiler vectorises: the same key when the
-  // coordinate is in range (true); false and key 0 otherwise (NaN included).
-  bool AxisToKeyBranchFree(double v, double origin, int32_t* key) const {
-    const double f = (v - origin) * inv_resolution_;
-    const bool in = (f >= kMinKey) & (f < static_cast<double>(kMaxKey) + 1.0);
-    const double g = in ? f : 0.0;
-    int32_t i = static_cast<int32_t>(g);
-    i -= (g < i);  // floor for negatives
-    *key = i;
-    return in;
-  }
   bool ToKey(double x, double y, double z, VoxelKey* key) const {
     return AxisToKey(x, origin_.x, &key->x) && AxisToKey(y, origin_.y, &key->y) &&
            AxisToKey(z, origin_.z, &key->z);

@@ -118,8 +118,8 @@ class VoxelBatch {
     uint8_t* __restrict state;
   };
   // Adds rows x cols observations (an image) row by row: fill_row(r, KeyRow row, V* data)
-  // fills row r's `cols` keys, states and data (Grid::AxisToKeyBranchFree computes keys in
-  // a loop the compiler vectorises: the row's arrays are separate and restrict). Equal
+  // fills row r's `cols` keys, states and data (perception/row_projection.h computes a
+  // depth row's keys 4 pixels at a time: the row's arrays are separate). Equal
   // consecutive keys merge as in AddPoints. With a pool, rows are split over its threads
   // and fill_row is called concurrently for different rows. Scratch rows are kept in the
   // batch (no allocation once they have grown to `cols`).
