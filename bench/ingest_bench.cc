@@ -249,9 +249,9 @@ std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> NewVolume(doubl
 // Open3D volume per thread setting) takes a warm-up lap of the 10 frames, then reps x 10
 // more, one at a time (the next is sent after the previous one's ack), every frame moved
 // 10 m further along x so that all its voxels (volume units) are new. Ours: zstd + JPEG
-// (the client library's default) through LiveMap::SubmitFrame (decode included), and the same frames already decoded
-// through a running MapState's stages (decode excluded); Open3D: Integrate of the decoded
-// frames into its running volume.
+// (the client library's default) through LiveMap::SubmitFrame (decode included), and the same
+// frames already decoded through a running MapState's stages (decode excluded); Open3D: Integrate
+// of the decoded frames into its running volume.
 void RunningMap(const std::vector<RealFrame>& frames, const server::MapConfig& config,
                 const server::LiveMap::Options& map_options, ThreadPool& pool,
                 server::WorkQueue& runner, int reps) {
