@@ -45,11 +45,6 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   }
   const uint16_t* depth = frame.depth.pixels.data();
   const uint8_t* rgb = frame.color ? frame.color->rgb.data() : nullptr;
-  const double scale = frame.depth_scale;
-  const double min_depth = options.min_depth, max_depth = options.max_depth;
-  const double* cx = col_x.data();
-  const double* cy = col_y.data();
-  const double* cz = col_z.data();
   const Eigen::Vector3d* bases = row_base.data();
   // Per row: pixels with depth in range, and with valid depth outside it (each row is
   // filled by one thread; summed below).
@@ -60,14 +55,20 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   uint32_t* const out_rows = row_out.data();
   // One row: ProjectRow (perception/row_projection.h) computes its keys, the same as
   // Grid::ToKey's, 4 pixels at a time where the CPU has AVX2; strided rows are gathered
-  // into a contiguous row first.
-  const double tx = t.x(), ty = t.y(), tz = t.z();
-  const double ox = grid.origin().x, oy = grid.origin().y, oz = grid.origin().z;
-  const double inv_resolution = grid.inv_resolution();
+  // into a contiguous row first. `shared` is what every row has in common; each row sets
+  // its pixels and its base term.
+  RowProjection shared{};
+  shared.cols = cols;
+  shared.scale = frame.depth_scale;
+  shared.min_depth = options.min_depth, shared.max_depth = options.max_depth;
+  shared.ray_x = col_x.data(), shared.ray_y = col_y.data(), shared.ray_z = col_z.data();
+  shared.tx = t.x(), shared.ty = t.y(), shared.tz = t.z();
+  shared.ox = grid.origin().x, shared.oy = grid.origin().y, shared.oz = grid.origin().z;
+  shared.inv_resolution = grid.inv_resolution();
   using Batch = VoxelBatch<RGBWeightedVoxel>;
   static_assert(Batch::kUse == kRowUse && Batch::kNoKey == kRowNoKey && Batch::kSkip == kRowSkip);
-  auto fill_row = [&, tx, ty, tz, ox, oy, oz, scale, min_depth, max_depth, in_rows, out_rows](
-                      size_t r, Batch::KeyRow keys, RGBWeightedVoxel* obs) {
+  auto fill_row = [&, shared, in_rows, out_rows](size_t r, Batch::KeyRow keys,
+                                                 RGBWeightedVoxel* obs) {
     const size_t first = r * stride * cam.width;
     const uint16_t* row = depth + first;
     if (stride > 1) {
@@ -76,24 +77,10 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
       for (int c = 0; c < cols; ++c) gathered[c] = row[size_t(c) * stride];
       row = gathered.data();
     }
-    const RowProjection projection{.depth = row,
-                                   .cols = cols,
-                                   .scale = scale,
-                                   .min_depth = min_depth,
-                                   .max_depth = max_depth,
-                                   .ray_x = cx,
-                                   .ray_y = cy,
-                                   .ray_z = cz,
-                                   .base_x = bases[r].x(),
-                                   .base_y = bases[r].y(),
-                                   .base_z = bases[r].z(),
-                                   .tx = tx,
-                                   .ty = ty,
-                                   .tz = tz,
-                                   .ox = ox,
-                                   .oy = oy,
-                                   .oz = oz,
-                                   .inv_resolution = inv_resolution};
+    RowProjection projection = shared;
+    projection.depth = row;
+    projection.base_x = bases[r].x(), projection.base_y = bases[r].y();
+    projection.base_z = bases[r].z();
     const RowCounts counts = ProjectRow(projection, keys.x, keys.y, keys.z, keys.state);
     in_rows[r] = counts.in_range, out_rows[r] = counts.out_of_range;
     if (rgb != nullptr) {

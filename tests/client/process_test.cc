@@ -22,16 +22,37 @@
 namespace skimap::testing {
 namespace {
 
+// skimapd as a child process on a free loopback port, its files under a fresh `dir`.
+struct ChildServer {
+  std::string dir, address;
+  pid_t pid = -1;
+  std::unique_ptr<client::MapClient> client;
+};
+
+ChildServer StartSkimapd(const std::string& name) {
+  ChildServer s;
+  s.dir = (std::filesystem::temp_directory_path() / absl::StrCat(name, "_", getpid())).string();
+  std::filesystem::create_directories(s.dir);
+  s.address = absl::StrCat("127.0.0.1:", FreePort());
+  s.pid = SpawnProcess({SKIMAPD_PATH, "--address=" + s.address, "--data_dir=" + s.dir + "/d",
+                        "--worker_threads=1", "--http_address="});
+  if (s.pid >= 0) s.client = client::MapClient::Connect(s.address);
+  return s;
+}
+
+// Sends SIGTERM and waits; the wait status (-1 if it cannot be had).
+int StopSkimapd(const ChildServer& s) {
+  int status = -1;
+  if (kill(s.pid, SIGTERM) != 0 || waitpid(s.pid, &status, 0) != s.pid) return -1;
+  return status;
+}
+
 TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / absl::StrCat("skimap_process_test_", getpid()))
-          .string();
-  std::filesystem::create_directories(dir);
-  const std::string address = absl::StrCat("127.0.0.1:", FreePort());
-  const pid_t pid = SpawnProcess({SKIMAPD_PATH, "--address=" + address, "--data_dir=" + dir + "/d",
-                                  "--worker_threads=1", "--http_address="});
-  ASSERT_GE(pid, 0);
-  std::unique_ptr<client::MapClient> client = client::MapClient::Connect(address);
+  const ChildServer server = StartSkimapd("skimap_process_test");
+  ASSERT_GE(server.pid, 0);
+  const std::string& dir = server.dir;
+  const std::string& address = server.address;
+  client::MapClient* client = server.client.get();
   ASSERT_TRUE(client->WaitForServer(absl::Seconds(20)).ok());
   v1::CreateMapRequest create;
   create.set_map_id("proc");
@@ -59,30 +80,24 @@ TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
   text << yaml_in.rdbuf();
   EXPECT_NE(text.str().find("mode: trinary"), std::string::npos);
 
-  ASSERT_EQ(kill(pid, SIGTERM), 0);
-  int status = 0;
-  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  const int status = StopSkimapd(server);
+  ASSERT_NE(status, -1);
   EXPECT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0);
   std::filesystem::remove_all(dir);
 }
 
 TEST(ProcessTest, CliStreamsRealFramesInEveryDepthEncodingAndRefusesAnUnknownOne) {
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / absl::StrCat("skimap_stream_cli_", getpid()))
-          .string();
-  std::filesystem::create_directories(dir);
-  const std::string address = absl::StrCat("127.0.0.1:", FreePort());
-  const pid_t pid = SpawnProcess({SKIMAPD_PATH, "--address=" + address, "--data_dir=" + dir + "/d",
-                                  "--worker_threads=1", "--http_address="});
-  ASSERT_GE(pid, 0);
-  std::unique_ptr<client::MapClient> client = client::MapClient::Connect(address);
+  const ChildServer server = StartSkimapd("skimap_stream_cli");
+  ASSERT_GE(server.pid, 0);
+  const std::string& dir = server.dir;
+  client::MapClient* client = server.client.get();
   ASSERT_TRUE(client->WaitForServer(absl::Seconds(20)).ok());
   const std::string scene = SKIMAP_YCBV_DIR "/test/000000";
   auto stream = [&](const std::string& map, const std::string& flags) {
     const std::string command =
-        absl::StrCat(SKIMAP_CLI_PATH, " --server=", address, " stream ", scene, " --map=", map,
-                     " --resolution=0.01 ", flags, " > ", dir, "/out.txt 2>&1");
+        absl::StrCat(SKIMAP_CLI_PATH, " --server=", server.address, " stream ", scene,
+                     " --map=", map, " --resolution=0.01 ", flags, " > ", dir, "/out.txt 2>&1");
     return std::system(command.c_str());
   };
   // Every encoding gives the same map: depth is lossless in each.
@@ -104,9 +119,7 @@ TEST(ProcessTest, CliStreamsRealFramesInEveryDepthEncodingAndRefusesAnUnknownOne
   EXPECT_NE(text.str().find("--depth_encoding"), std::string::npos) << text.str();
   EXPECT_FALSE(client->GetMap("maps/bad").ok());  // nothing created
 
-  ASSERT_EQ(kill(pid, SIGTERM), 0);
-  int status = 0;
-  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  EXPECT_NE(StopSkimapd(server), -1);
   std::filesystem::remove_all(dir);
 }
 
