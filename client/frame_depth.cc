@@ -1,7 +1,5 @@
 #include "client/frame_depth.h"
 
-#include <zstd.h>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
@@ -9,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "perception/rvl_codec.h"
+#include "perception/zstd_frame.h"
 
 namespace skimap::client {
 
@@ -33,13 +32,11 @@ absl::Status SetFrameDepth(const uint16_t* pixels, int width, int height, v1::Fr
       }
       if (encoding == v1::DEPTH_ENCODING_ZSTD) {
         // One frame that declares its content size (the server checks it: docs/api.md).
-        std::string packed(ZSTD_compressBound(bytes.size()), '\0');
-        const size_t n = ZSTD_compress(packed.data(), packed.size(), bytes.data(), bytes.size(), 1);
-        if (ZSTD_isError(n)) {
-          return absl::InternalError(absl::StrCat("depth: zstd: ", ZSTD_getErrorName(n)));
+        absl::StatusOr<std::string> packed = perception::ZstdCompress(bytes);
+        if (!packed.ok()) {
+          return absl::InternalError(absl::StrCat("depth: ", packed.status().message()));
         }
-        packed.resize(n);
-        bytes = std::move(packed);
+        bytes = *std::move(packed);
       }
       break;
     case v1::DEPTH_ENCODING_PNG16: {

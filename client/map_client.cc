@@ -1,12 +1,11 @@
 #include "client/map_client.h"
 
-#include <zstd.h>
-
 #include <chrono>
 
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "perception/zstd_frame.h"
 
 namespace skimap::client {
 
@@ -193,12 +192,11 @@ absl::StatusOr<v1::OccupancyGrid> MapClient::GetOccupancyGrid(
     return absl::DataLossError("occupancy grid: width*height exceeds the message limit");
   }
   const std::string& packed = grid->data();
-  if (ZSTD_getFrameContentSize(packed.data(), packed.size()) != cells) {
+  if (!perception::ZstdCheckFrame(packed, cells).ok()) {
     return absl::DataLossError("occupancy grid: the zstd data does not hold width*height cells");
   }
   std::string raw(cells, '\0');
-  const size_t n = ZSTD_decompress(raw.data(), raw.size(), packed.data(), packed.size());
-  if (ZSTD_isError(n) || n != cells) {
+  if (!perception::ZstdDecompressExact(packed, raw.data(), cells).ok()) {
     return absl::DataLossError("occupancy grid: the zstd data does not decode");
   }
   grid->set_data(std::move(raw));

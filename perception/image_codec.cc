@@ -1,7 +1,6 @@
 #include "perception/image_codec.h"
 
 #include <turbojpeg.h>
-#include <zstd.h>
 
 #include <bit>
 #include <cstring>
@@ -12,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "perception/image_header.h"
 #include "perception/rvl_codec.h"
+#include "perception/zstd_frame.h"
 
 namespace skimap::perception {
 namespace {
@@ -124,21 +124,14 @@ absl::Status DecodeDepthInto(DepthCodec codec, std::string_view bytes, int width
       LoadLittleEndian(bytes, &out->pixels);
       return absl::OkStatus();
     case DepthCodec::kZstd: {
-      const unsigned long long claimed = ZSTD_getFrameContentSize(bytes.data(), bytes.size());
-      if (claimed == ZSTD_CONTENTSIZE_ERROR || claimed == ZSTD_CONTENTSIZE_UNKNOWN) {
-        return absl::InvalidArgumentError("depth: not a zstd frame with a known content size");
-      }
-      if (claimed != raw_bytes) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("depth: zstd frame holds ", claimed, " bytes, expected ", raw_bytes));
-      }
+      // The claimed size is checked before the pixels are allocated.
+      absl::Status s = ZstdCheckFrame(bytes, raw_bytes);
       // The little-endian bytes straight into the pixels, then swapped on a big-endian host.
-      out->pixels.resize(count);
-      const size_t n = ZSTD_decompress(out->pixels.data(), raw_bytes, bytes.data(), bytes.size());
-      if (ZSTD_isError(n) || n != raw_bytes) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "depth: zstd decode failed: ", ZSTD_isError(n) ? ZSTD_getErrorName(n) : "short"));
+      if (s.ok()) {
+        out->pixels.resize(count);
+        s = ZstdDecompressExact(bytes, out->pixels.data(), raw_bytes);
       }
+      if (!s.ok()) return absl::InvalidArgumentError(absl::StrCat("depth: ", s.message()));
       if constexpr (std::endian::native == std::endian::big) {
         for (uint16_t& p : out->pixels) p = static_cast<uint16_t>(p << 8 | p >> 8);
       }
@@ -240,14 +233,8 @@ absl::StatusOr<std::string> EncodeDepth(DepthCodec codec, const DepthImage& imag
       return StoreLittleEndian(image.pixels);
     case DepthCodec::kRvl:
       return EncodeRvl(image.pixels.data(), image.pixels.size());
-    case DepthCodec::kZstd: {
-      const std::string raw = StoreLittleEndian(image.pixels);
-      std::string out(ZSTD_compressBound(raw.size()), '\0');
-      const size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), 1);
-      if (ZSTD_isError(n)) return absl::InternalError(ZSTD_getErrorName(n));
-      out.resize(n);
-      return out;
-    }
+    case DepthCodec::kZstd:
+      return ZstdCompress(StoreLittleEndian(image.pixels));
     case DepthCodec::kPng16: {
       const cv::Mat m(image.height, image.width, CV_16UC1,
                       const_cast<uint16_t*>(image.pixels.data()));

@@ -1,6 +1,6 @@
 #include "server/maps/chunk_codec.h"
 
-#include <zstd.h>
+#include "perception/zstd_frame.h"
 
 namespace skimap::server {
 namespace {
@@ -16,11 +16,10 @@ constexpr uint32_t kMaxRawBytes = 256u << 20;
 }  // namespace
 
 std::string SealChunk(ChunkContent content, uint32_t type, uint32_t count, std::string raw) {
-  std::string packed(ZSTD_compressBound(raw.size()), '\0');
-  const size_t z = ZSTD_compress(packed.data(), packed.size(), raw.data(), raw.size(), kZstdLevel);
-  const bool zstd = !ZSTD_isError(z) && z < raw.size();
+  const absl::StatusOr<std::string> packed = perception::ZstdCompress(raw, kZstdLevel);
+  const bool zstd = packed.ok() && packed->size() < raw.size();
   std::string out;
-  out.reserve(kHeaderBytes + (zstd ? z : raw.size()) + 4);
+  out.reserve(kHeaderBytes + (zstd ? packed->size() : raw.size()) + 4);
   Encoder e(&out);
   e.Bytes(std::string_view(kMagic, 4));
   e.U8(kChunkFormatVersion & 0xff);
@@ -30,7 +29,7 @@ std::string SealChunk(ChunkContent content, uint32_t type, uint32_t count, std::
   e.U32(type);
   e.U32(count);
   e.U32(static_cast<uint32_t>(raw.size()));
-  e.Bytes(zstd ? std::string_view(packed.data(), z) : std::string_view(raw));
+  e.Bytes(zstd ? std::string_view(*packed) : std::string_view(raw));
   e.U32(Crc32c(out));
   return out;
 }
@@ -78,12 +77,13 @@ absl::StatusOr<OpenedChunk> OpenChunk(std::string_view blob, ChunkContent conten
     // cannot expand beyond that: a larger claim is refused before anything is allocated
     // (a few corrupt bytes must not cost hundreds of megabytes).
     if (raw_size / (128u << 10) > payload.size() / 4 + 1 ||
-        ZSTD_getFrameContentSize(payload.data(), payload.size()) != raw_size) {
+        !perception::ZstdCheckFrame(payload, raw_size).ok()) {
       return absl::DataLossError("chunk: zstd payload does not match its raw size");
     }
     out.raw.resize(raw_size);
-    const size_t n = ZSTD_decompress(out.raw.data(), raw_size, payload.data(), payload.size());
-    if (ZSTD_isError(n) || n != raw_size) return absl::DataLossError("chunk: zstd payload corrupt");
+    if (!perception::ZstdDecompressExact(payload, out.raw.data(), raw_size).ok()) {
+      return absl::DataLossError("chunk: zstd payload corrupt");
+    }
   } else {
     return absl::DataLossError(absl::StrCat("chunk: unknown codec ", codec));
   }

@@ -1,5 +1,4 @@
 // MapService: spatial queries, each answered from one snapshot of the map.
-#include <zstd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +8,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "perception/zstd_frame.h"
 #include "server/maps/free_space_grid.h"
 #include "server/maps/map_service.h"
 #include "server/maps/query_box.h"
@@ -18,20 +18,6 @@
 
 namespace skimap::server {
 namespace {
-
-// One zstd frame of `raw` at level 1 (grids compress some 30-100x at a few hundred MB/s).
-absl::StatusOr<std::string> CompressZstd(std::string_view raw) {
-  thread_local std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> ctx(ZSTD_createCCtx(),
-                                                                      ZSTD_freeCCtx);
-  std::string packed(ZSTD_compressBound(raw.size()), '\0');
-  const size_t n =
-      ZSTD_compressCCtx(ctx.get(), packed.data(), packed.size(), raw.data(), raw.size(), 1);
-  if (ZSTD_isError(n)) {
-    return absl::InternalError(absl::StrCat("zstd: ", ZSTD_getErrorName(n)));
-  }
-  packed.resize(n);
-  return packed;
-}
 
 constexpr int kDefaultVoxelPage = 10000;
 constexpr int kMaxVoxelPage = 100000;
@@ -205,7 +191,8 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
   });
   if (!status.ok()) return status;
   if (request.data_encoding() == v1::GRID_ENCODING_ZSTD) {  // outside the map's lock
-    absl::StatusOr<std::string> packed = CompressZstd(out.data());
+    // One zstd frame at level 1: grids compress some 30-100x at a few hundred MB/s.
+    absl::StatusOr<std::string> packed = perception::ZstdCompress(out.data());
     if (!packed.ok()) return packed.status();
     out.set_data(*std::move(packed));
     out.set_data_encoding(v1::GRID_ENCODING_ZSTD);
