@@ -68,8 +68,8 @@ void LiveMap::StartRecognition() {
   worker_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
   thread_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
   recognition_ = std::make_unique<RecognitionQueue>(
-      // NEWEST: mapping first; recognition takes the CPU it leaves (nice 5).
-      RecognitionQueue::Options{.every_frame = rc.every_frame, .nice = rc.every_frame ? 0 : 5},
+      RecognitionQueue::Options{.every_frame = rc.every_frame,
+                                .nice = RecognitionNice(rc.every_frame, options_.worker_nice)},
       [this](RecognitionJob& job) { ObserveOnThread(job); },
       [this](RecognitionJob& job) { RecognizeOnThread(job); });
 }

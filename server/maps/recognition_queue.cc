@@ -1,10 +1,16 @@
 #include "server/maps/recognition_queue.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "skimap/thread_pool.h"
 
 namespace skimap::server {
+
+int RecognitionNice(bool every_frame, int ingest_nice) {
+  constexpr int kStep = 10;
+  return every_frame ? 0 : std::min(19, ingest_nice + kStep);
+}
 
 RecognitionQueue::RecognitionQueue(const Options& options,
                                    std::function<void(RecognitionJob&)> prepare,

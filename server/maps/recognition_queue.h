@@ -46,6 +46,11 @@ struct RecognitionJob {
   absl::StatusOr<recognition::LabelObservations> observed = absl::UnknownError("not prepared");
 };
 
+// The niceness of a map's recognition threads: EVERY_FRAME (acks wait for recognition)
+// at 0; NEWEST 10 steps below the map's ingestion threads, at most 19, so that mapping
+// wins the cores and recognition takes what it leaves (docs/recognition.md, "Scheduling").
+int RecognitionNice(bool every_frame, int ingest_nice);
+
 class RecognitionQueue {
  public:
   struct Options {

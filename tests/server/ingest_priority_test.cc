@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "server/maps/map_service.h"
+#include "server/maps/recognition_queue.h"
 #include "server/work_queue.h"
 #include "skimap/thread_pool.h"
 
@@ -72,6 +73,30 @@ TEST(IngestPriorityTest, MapServiceRunsItsIngestionThreadsAtIngestNice) {
     count = ThreadsAtNice(13);
   }
   EXPECT_EQ(count, 5);
+}
+
+TEST(IngestPriorityTest, RecognitionUnderNewestRunsNicerThanIngestion) {
+  // NEWEST: 10 steps below ingestion (skimapd's default 5 gives 15), at most 19;
+  // EVERY_FRAME: at 0, since acks wait for it.
+  EXPECT_EQ(RecognitionNice(false, 5), 15);
+  EXPECT_EQ(RecognitionNice(false, 0), 10);
+  EXPECT_EQ(RecognitionNice(false, 12), 19);
+  EXPECT_EQ(RecognitionNice(true, 5), 0);
+  // The queue's two threads (prepare and run) take it.
+  ASSERT_EQ(ThreadsAtNice(17), 0);
+  std::promise<int> prepared, ran;
+  {
+    RecognitionQueue queue(
+        {.every_frame = true, .nice = RecognitionNice(false, 7)},
+        [&](RecognitionJob&) { prepared.set_value(ThisThreadNice()); },
+        [&](RecognitionJob&) { ran.set_value(ThisThreadNice()); });
+    RecognitionJob job;
+    job.sequence = 1;
+    queue.Offer(std::move(job));
+    EXPECT_EQ(prepared.get_future().get(), 17);
+    EXPECT_EQ(ran.get_future().get(), 17);
+  }
+  EXPECT_EQ(ThreadsAtNice(17), 0);  // gone with the queue
 }
 
 }  // namespace
