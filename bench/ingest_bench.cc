@@ -14,7 +14,7 @@
 // (SkiMap::Integrate under the snapshot lock), on the server's ThreadPool
 // (--worker_threads, skimapd's default 2), timed from SubmitFrame to the ack callback.
 //
-//  1. Codec costs: bytes, encode (the robot's side) and decode (the server's) per codec.
+//  1. Codec costs (bench/codec_costs.h).
 //  2. Per frame, new space: every sample integrates one frame into a fresh map (every
 //     voxel is new); median and p90 over reps x 10 frames. "decode excluded" runs the same
 //     stages on the already decoded frame (the work Open3D is given), split into Stage
@@ -59,8 +59,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
+#include "bench/codec_costs.h"
+#include "bench/samples.h"
 #include "bench/ycbv_frames.h"
-#include "perception/image_codec.h"
 #include "server/malloc_tuning.h"
 #include "server/maps/frame_decode.h"
 #include "server/maps/frame_stages.h"
@@ -72,10 +73,7 @@
 #ifdef SKIMAP_BENCH_OPEN3D
 #include <omp.h>
 
-#include "open3d/camera/PinholeCameraIntrinsic.h"
-#include "open3d/geometry/Image.h"
-#include "open3d/geometry/RGBDImage.h"
-#include "open3d/pipelines/integration/ScalableTSDFVolume.h"
+#include "bench/open3d_peer.h"
 #endif
 
 ABSL_FLAG(std::string, ycbv, SKIMAP_BENCH_YCBV_DIR, "the ycbv-0000 BOP dataset root");
@@ -91,81 +89,10 @@ namespace skimap::bench {
 namespace {
 
 namespace v1 = skimap::v1;
-using Clock = std::chrono::steady_clock;
-double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
 [[noreturn]] void Die(const std::string& what) {
   std::fprintf(stderr, "ingest_bench: %s\n", what.c_str());
   std::exit(1);
-}
-
-struct Samples {
-  std::vector<double> ms;
-  void Add(double v) { ms.push_back(v); }
-  double Quantile(double q) {
-    if (ms.empty()) return 0;
-    std::sort(ms.begin(), ms.end());
-    return ms[std::min(ms.size() - 1, size_t(q * double(ms.size())))];
-  }
-  double Median() { return Quantile(0.5); }
-};
-
-// 1. Encode / decode cost per codec over every frame.
-void CodecCosts(const std::vector<RealFrame>& frames, int reps) {
-  std::printf("\n### Codec costs (640x480 ycbv, per frame, median of %d x %zu)\n\n", reps,
-              frames.size());
-  std::printf(
-      "| image | codec | bytes | ratio | encode ms | decode ms |\n|---|---|---|---|---|---|\n");
-  const perception::DepthCodec depth_codecs[] = {
-      perception::DepthCodec::kRawU16, perception::DepthCodec::kPng16,
-      perception::DepthCodec::kZstd, perception::DepthCodec::kRvl};
-  const char* depth_names[] = {"RAW_U16", "PNG16", "ZSTD (level 1)", "RVL"};
-  const perception::ColorCodec color_codecs[] = {perception::ColorCodec::kRawRgb8,
-                                                 perception::ColorCodec::kPng,
-                                                 perception::ColorCodec::kJpeg};
-  const char* color_names[] = {"RAW_RGB8", "PNG", "JPEG q90"};
-  for (int c = 0; c < 4; ++c) {
-    Samples enc, dec;
-    double bytes = 0;
-    for (int r = 0; r < reps; ++r) {
-      for (const RealFrame& f : frames) {
-        const Clock::time_point t0 = Clock::now();
-        absl::StatusOr<std::string> b = perception::EncodeDepth(depth_codecs[c], f.depth);
-        const Clock::time_point t1 = Clock::now();
-        absl::StatusOr<perception::DepthImage> d =
-            perception::DecodeDepth(depth_codecs[c], *b, f.depth.width, f.depth.height);
-        const Clock::time_point t2 = Clock::now();
-        if (!d.ok() || d->pixels != f.depth.pixels) Die("depth codec is not lossless");
-        enc.Add(Ms(t1 - t0));
-        dec.Add(Ms(t2 - t1));
-        bytes += double(b->size());
-      }
-    }
-    bytes /= double(reps * frames.size());
-    std::printf("| depth | %s | %.0f | %.2f | %.2f | %.2f |\n", depth_names[c], bytes,
-                double(frames[0].depth.pixels.size() * 2) / bytes, enc.Median(), dec.Median());
-  }
-  for (int c = 0; c < 3; ++c) {
-    Samples enc, dec;
-    double bytes = 0;
-    for (int r = 0; r < reps; ++r) {
-      for (const RealFrame& f : frames) {
-        const Clock::time_point t0 = Clock::now();
-        absl::StatusOr<std::string> b = perception::EncodeColor(color_codecs[c], f.color);
-        const Clock::time_point t1 = Clock::now();
-        absl::StatusOr<perception::ColorImage> d =
-            perception::DecodeColor(color_codecs[c], *b, f.color.width, f.color.height);
-        const Clock::time_point t2 = Clock::now();
-        if (!d.ok()) Die("colour does not decode");
-        enc.Add(Ms(t1 - t0));
-        dec.Add(Ms(t2 - t1));
-        bytes += double(b->size());
-      }
-    }
-    bytes /= double(reps * frames.size());
-    std::printf("| colour | %s | %.0f | %.2f | %.2f | %.2f |\n", color_names[c], bytes,
-                double(frames[0].color.rgb.size()) / bytes, enc.Median(), dec.Median());
-  }
 }
 
 // The frames of one codec combination, `laps` x the 10 frames, frame k moved k * shift_m
@@ -209,41 +136,6 @@ void Stream(server::LiveMap& map, const std::vector<std::shared_ptr<const v1::Fr
   cv.wait(lock, [&] { return acked == frames.size(); });
   if (!error.empty()) Die(error);
 }
-
-#ifdef SKIMAP_BENCH_OPEN3D
-namespace o3d = open3d;
-struct Open3dFrame {
-  std::shared_ptr<o3d::geometry::RGBDImage> rgbd;
-  o3d::camera::PinholeCameraIntrinsic intrinsic;
-  Eigen::Matrix4d extrinsic;  // world -> camera
-};
-Open3dFrame ToOpen3d(const RealFrame& f, double shift_x, double max_depth) {
-  o3d::geometry::Image depth, color;
-  depth.Prepare(f.depth.width, f.depth.height, 1, 2);
-  std::memcpy(depth.data_.data(), f.depth.pixels.data(), f.depth.pixels.size() * 2);
-  color.Prepare(f.color.width, f.color.height, 3, 1);
-  std::memcpy(color.data_.data(), f.color.rgb.data(), f.color.rgb.size());
-  Open3dFrame out;
-  out.rgbd = o3d::geometry::RGBDImage::CreateFromColorAndDepth(
-      color, depth, 1.0 / f.api.depth_scale(), max_depth, /*convert_rgb_to_intensity=*/false);
-  const v1::CameraIntrinsics& k = f.api.intrinsics();
-  out.intrinsic = o3d::camera::PinholeCameraIntrinsic(int(k.width()), int(k.height()), k.fx(),
-                                                      k.fy(), k.cx(), k.cy());
-  const v1::Pose& p = f.api.pose();
-  Eigen::Isometry3d cam_to_world = Eigen::Isometry3d::Identity();
-  cam_to_world.linear() =
-      Eigen::Quaterniond(p.rotation().w(), p.rotation().x(), p.rotation().y(), p.rotation().z())
-          .toRotationMatrix();
-  cam_to_world.translation() =
-      Eigen::Vector3d(p.translation().x() + shift_x, p.translation().y(), p.translation().z());
-  out.extrinsic = cam_to_world.inverse().matrix();
-  return out;
-}
-std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> NewVolume(double voxel) {
-  return std::make_unique<o3d::pipelines::integration::ScalableTSDFVolume>(
-      voxel, 4 * voxel, o3d::pipelines::integration::TSDFVolumeColorType::RGB8);
-}
-#endif
 
 // 2c. Per frame into a running map, new space: the server's steady state. One map (one
 // Open3D volume per thread setting) takes a warm-up lap of the 10 frames, then reps x 10
@@ -340,7 +232,7 @@ void Run() {
   auto want = [&](const char* name) {
     return std::find(sections.begin(), sections.end(), name) != sections.end();
   };
-  if (want("codecs")) CodecCosts(frames, reps);
+  if (want("codecs")) PrintCodecCosts(frames, reps);
 
   const std::vector<Codec> codecs = {
       {"raw + raw RGB", v1::DEPTH_ENCODING_RAW_U16, v1::COLOR_ENCODING_RAW_RGB8},
@@ -467,7 +359,7 @@ void Run() {
       server::LiveMap map("bench", map_options);
       Stream(map, single[kDefaultCodec], window);
 #ifdef SKIMAP_BENCH_OPEN3D
-      std::unique_ptr<o3d::pipelines::integration::ScalableTSDFVolume> volumes[2];
+      std::unique_ptr<open3d::pipelines::integration::ScalableTSDFVolume> volumes[2];
       for (const int threads : {0, 1}) {
         runner.Run([&] {
           omp_set_num_threads(threads == 0 ? omp_get_num_procs() : threads);

@@ -1,9 +1,11 @@
 // StreamFrames over real gRPC: every kind of bad frame gets its status in its ack and the
 // stream goes on.
+#include <algorithm>
 #include <functional>
 #include <limits>
 #include <map>
 
+#include "perception/zstd_frame.h"
 #include "tests/server/server_fixture.h"
 #include "tests/server/synthetic_scene.h"
 
@@ -16,6 +18,15 @@ struct BadFrame {
   absl::StatusCode code;
   std::string field;  // must appear in the message
 };
+
+// Replaces the frame's depth with `raw` as one zstd frame less its last `cut` bytes, then
+// `tail`.
+void SetZstdDepth(v1::Frame& f, const std::string& raw, size_t cut = 0,
+                  const std::string& tail = "") {
+  const std::string packed = *perception::ZstdCompress(raw);
+  f.set_depth_encoding(v1::DEPTH_ENCODING_ZSTD);
+  f.set_depth(packed.substr(0, packed.size() - std::min(cut, packed.size())) + tail);
+}
 
 TEST_F(ServerTest, BadFramesGetTheirStatusAndTheStreamContinues) {
   CreateMap("stream");
@@ -53,6 +64,18 @@ TEST_F(ServerTest, BadFramesGetTheirStatusAndTheStreamContinues) {
          f.set_depth("not zstd at all");
        },
        Code::kInvalidArgument, "depth"},
+      // The client's default encoding, damaged: the frame's own raw pixels as zstd, cut
+      // short, followed by junk, or claiming half or twice the image's bytes.
+      {"truncated zstd depth", [](v1::Frame& f) { SetZstdDepth(f, f.depth(), 5); },
+       Code::kInvalidArgument, "depth"},
+      {"zstd depth with trailing junk", [](v1::Frame& f) { SetZstdDepth(f, f.depth(), 0, "junk"); },
+       Code::kInvalidArgument, "depth"},
+      {"zstd depth of half the image",
+       [](v1::Frame& f) { SetZstdDepth(f, f.depth().substr(0, f.depth().size() / 2)); },
+       Code::kInvalidArgument, "depth"},
+      {"zstd depth of twice the image",
+       [](v1::Frame& f) { SetZstdDepth(f, f.depth() + f.depth()); }, Code::kInvalidArgument,
+       "depth"},
       {"no depth encoding",
        [](v1::Frame& f) { f.set_depth_encoding(v1::DEPTH_ENCODING_UNSPECIFIED); },
        Code::kInvalidArgument, "depth_encoding"},

@@ -1,0 +1,19 @@
+// Section 1 of ingest_bench (docs/benchmarks.md, "Ingestion"): what each depth and colour
+// codec costs per real frame. Every depth codec is checked to give back exactly the
+// pixels it was given; the program stops otherwise.
+#ifndef BENCH_CODEC_COSTS_H_
+#define BENCH_CODEC_COSTS_H_
+
+#include <vector>
+
+#include "bench/ycbv_frames.h"
+
+namespace skimap::bench {
+
+// Prints a Markdown table: bytes, ratio to raw, median encode and decode ms over reps x
+// the frames, per codec (perception/image_codec.h, the server's own decoders).
+void PrintCodecCosts(const std::vector<RealFrame>& frames, int reps);
+
+}  // namespace skimap::bench
+
+#endif  // BENCH_CODEC_COSTS_H_
