@@ -1,6 +1,6 @@
 // FreePort(): a TCP port on the loopback interface that nothing listens on right now, for
 // tests that start a real skimapd process. (The kernel picks it; another process could
-// take it before the server binds, which the tests accept.)
+// take it before the server binds: SkimapdProcess::Start then tries fresh ports.)
 #ifndef TESTS_COMMON_FREE_PORT_H_
 #define TESTS_COMMON_FREE_PORT_H_
 

@@ -57,6 +57,34 @@ class SkimapdProcess {
   absl::Status Start() { return StartOn("127.0.0.1"); }
   // Like Start, listening on `host` (clients still connect through 127.0.0.1).
   absl::Status StartOn(const std::string& host) {
+    // FreePort's ports can be taken by another test's process before skimapd binds them
+    // (ctest runs tests in parallel); skimapd then exits at start ("cannot listen on"),
+    // so a start whose process exits is tried again on fresh ports. A start that fails for
+    // another reason fails every attempt the same way.
+    constexpr int kAttempts = 3;
+    absl::Status s;
+    for (int attempt = 0; attempt < kAttempts; ++attempt) {
+      s = StartOnce(host);
+      if (!absl::IsFailedPrecondition(s)) return s;
+    }
+    return s;
+  }
+
+  // Appends the process's stderr to `path` (from the next Start on) instead of the test's.
+  void RedirectStderr(std::string path) { stderr_path_ = std::move(path); }
+
+  // True while the process has not exited.
+  bool Running() {
+    if (pid_ <= 0) return false;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) == 0) return true;
+    pid_ = -1;
+    return false;
+  }
+
+ private:
+  // One start on fresh ports; FailedPrecondition when the process exits before serving.
+  absl::Status StartOnce(const std::string& host) {
     const int port = FreePort();
     address_ = absl::StrCat("127.0.0.1:", port);
     const std::string listen = absl::StrCat(host, ":", port);
@@ -89,18 +117,7 @@ class SkimapdProcess {
     }
   }
 
-  // Appends the process's stderr to `path` (from the next Start on) instead of the test's.
-  void RedirectStderr(std::string path) { stderr_path_ = std::move(path); }
-
-  // True while the process has not exited.
-  bool Running() {
-    if (pid_ <= 0) return false;
-    int status = 0;
-    if (waitpid(pid_, &status, WNOHANG) == 0) return true;
-    pid_ = -1;
-    return false;
-  }
-
+ public:
   // kill -9 (no chance to flush anything), then Start() again on the same data dir.
   absl::Status CrashAndRestart() {
     if (pid_ > 0) {
