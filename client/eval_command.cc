@@ -141,6 +141,7 @@ void AddDetections(const std::string& scene, const std::vector<v1::Instance>& in
     out->push_back({{"scene", scene},
                     {"obj_id", instances[i].obj_id()},
                     {"score", instances[i].score()},
+                    {"fit", instances[i].fit()},
                     {"true_positive", static_cast<bool>(matched[i])}});
   }
 }
@@ -211,6 +212,12 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
     stream.recognition.emplace();
     stream.recognition->set_enabled(true);
     stream.recognition->set_policy(v1::RecognitionOptions::EVERY_FRAME);
+    if (options.min_instance_score) {
+      stream.recognition->set_min_instance_score(*options.min_instance_score);
+    }
+    if (options.min_instance_fit) {
+      stream.recognition->set_min_instance_fit(*options.min_instance_fit);
+    }
     const std::string map = "maps/" + stream.map_id;
     if (absl::Status s = client.DeleteMap(map); !s.ok() && !absl::IsNotFound(s)) return s;
     const auto start = std::chrono::steady_clock::now();

@@ -33,6 +33,7 @@
 #ifndef CLIENT_EVAL_COMMAND_H_
 #define CLIENT_EVAL_COMMAND_H_
 
+#include <optional>
 #include <string>
 
 #include "absl/status/status.h"
@@ -54,6 +55,8 @@ struct EvalOptions {
   std::string summary;        // the totals and each instance's score and verdict, or empty
   bool keep_maps = false;
   bool single_view = true;  // also run the single-view baseline
+  // The maps' visibility thresholds (RecognitionOptions); unset: the server's defaults.
+  std::optional<double> min_instance_score, min_instance_fit;
   SingleViewOptions single_view_options;
 };
 

@@ -65,6 +65,11 @@ ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this 
 ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
 ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
 ABSL_FLAG(bool, keep_maps, false, "eval: keep the eval_<scene> maps");
+ABSL_FLAG(double, min_instance_score, -1,
+          "eval: the maps' min_instance_score (instances scoring less are not listed; -1 = "
+          "the server's default; 0 lists all, to sweep the threshold from --summary)");
+ABSL_FLAG(double, min_instance_fit, -1,
+          "eval: the maps' min_instance_fit (-1 = the server's default)");
 ABSL_FLAG(bool, single_view, true,
           "eval: also score the single-view baseline (each frame alone: ClassifyImage + PnP)");
 ABSL_FLAG(std::string, instances_dir, "",
@@ -261,7 +266,8 @@ int main(int argc, char** argv) {
       "[--objects=1,5] [--min_score=S] [--json]\n"
       "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
       "[--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10] [--csv=FILE] "
-      "[--instances_dir=DIR] [--summary=FILE] [--single_view=false] [--keep_maps] [--train]");
+      "[--instances_dir=DIR] [--summary=FILE] [--single_view=false] [--keep_maps] [--train] "
+      "[--min_instance_score=S] [--min_instance_fit=F]");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -301,6 +307,12 @@ int main(int argc, char** argv) {
     options.single_view = absl::GetFlag(FLAGS_single_view);
     options.instances_dir = absl::GetFlag(FLAGS_instances_dir);
     options.summary = absl::GetFlag(FLAGS_summary);
+    if (const double v = absl::GetFlag(FLAGS_min_instance_score); v != -1) {
+      options.min_instance_score = v;
+    }
+    if (const double v = absl::GetFlag(FLAGS_min_instance_fit); v != -1) {
+      options.min_instance_fit = v;
+    }
     if (options.every < 1) return Fail(absl::InvalidArgumentError("--every must be at least 1"));
     if (absl::GetFlag(FLAGS_train)) {
       if (absl::Status s =

@@ -6,6 +6,7 @@
 #include <optional>
 #include <vector>
 
+#include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
 #include "perception/recognition/instance_estimator.h"
 
@@ -224,6 +225,7 @@ class Reconciler {
         e.instance.id = 0;
       }
     }
+    AddNeighbours(obj_id, d, &existing);
     MergeDuplicates(&existing, d);
     return events_;
   }
@@ -312,6 +314,31 @@ class Reconciler {
   bool Better(const Instance& x, const Instance& y) const {
     if (Visible(x) != Visible(y)) return Visible(x);
     return x.score > y.score;
+  }
+
+  // An instance updated here may have moved (by up to d) next to an instance of the object
+  // that lies beyond the region's reach and so is not in `existing`: those are added (as
+  // supported, so nothing but a merge can remove them), and `existing` sorted by id again.
+  void AddNeighbours(uint32_t obj_id, float d, std::vector<Existing>* existing) {
+    absl::flat_hash_set<uint64_t> known;
+    for (const Existing& e : *existing) known.insert(e.instance.id);
+    std::vector<Existing> found;
+    for (const Existing& e : *existing) {
+      if (e.instance.id == 0 || !e.matched) continue;
+      state_.instances.RadiusSearch(ToPoint(PositionOf(e.instance)),
+                                    d + HalfDiagonal(state_.instances.grid()),
+                                    [&](const VoxelKey&, const InstancesVoxel& voxel) {
+                                      for (const Instance& i : voxel.items()) {
+                                        if (i.object_id == obj_id && known.insert(i.id).second) {
+                                          found.push_back({i, false, true});
+                                        }
+                                      }
+                                    });
+    }
+    if (found.empty()) return;
+    existing->insert(existing->end(), found.begin(), found.end());
+    std::sort(existing->begin(), existing->end(),
+              [](const Existing& a, const Existing& b) { return a.instance.id < b.instance.id; });
   }
 
   void MergeDuplicates(std::vector<Existing>* existing, float d) {

@@ -14,7 +14,8 @@
 //      it lies in the region. An unmatched estimate within d of a matched instance is a
 //      duplicate and ignored; any other is a new instance (CREATED, the next id).
 //   4. Two instances of the object closer than d are one: the younger is MERGED into the
-//      older, which keeps its id.
+//      older, which keeps its id. This includes an instance beyond the region that an
+//      updated one moved next to.
 //
 // Events are about visible instances (score >= min_instance_score): an instance becoming
 // visible is CREATED, one falling below or going is REMOVED, a visible one that changed in
@@ -45,7 +46,7 @@ struct ReconcileRequest {
 struct ReconcileParams {
   std::string map_id;
   double min_instance_score = 8;
-  double min_instance_fit = 0.35;
+  double min_instance_fit = 0.20;
   float inlier_distance = 0.02f;
 };
 

@@ -22,7 +22,7 @@ struct RecognitionConfig {
   double hough_bin = 0.02;
   bool every_frame = false;  // policy EVERY_FRAME (else NEWEST)
   double min_instance_score = 100;
-  double min_instance_fit = 0.35;
+  double min_instance_fit = 0.20;
   friend bool operator==(const RecognitionConfig&, const RecognitionConfig&) = default;
 };
 

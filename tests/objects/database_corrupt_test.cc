@@ -10,13 +10,12 @@
 #include <cstring>
 #include <functional>
 #include <limits>
-#include <random>
 
-#include "absl/strings/str_cat.h"
 #include "perception/objects/database_io.h"
 #include "perception/objects/object_database.h"
 #include "perception/objects/random_forest.h"
 #include "skimap/encoding.h"
+#include "tests/objects/small_database.h"
 
 namespace skimap::objects {
 namespace {
@@ -82,30 +81,10 @@ BlobLayout Parse(const std::string& blob) {
   return l;
 }
 
-constexpr int kDims = 256;  // ORB: 256 bits, one 0/1 feature each
+constexpr int kDims = kSmallDims;
 constexpr int kObjects = 2, kVoxels = 3, kClasses = kObjects * kVoxels;
 
-// Random bit prototypes per class; samples flip 5 % of the bits.
-RandomForest SmallForest() {
-  std::mt19937 rng(17);
-  std::bernoulli_distribution coin(0.5), flip(0.05);
-  std::vector<std::vector<float>> protos(kClasses, std::vector<float>(kDims));
-  for (auto& p : protos) {
-    for (float& x : p) x = coin(rng);
-  }
-  TrainingSet set{.dims = kDims};
-  std::vector<float> x(kDims);
-  for (int i = 0; i < 20; ++i) {
-    for (int c = 0; c < kClasses; ++c) {
-      for (int d = 0; d < kDims; ++d) x[d] = flip(rng) ? 1 - protos[c][d] : protos[c][d];
-      set.Add(x, static_cast<uint32_t>(c));
-    }
-  }
-  absl::StatusOr<RandomForest> f =
-      RandomForest::Train(set, kClasses, {.trees = 3, .max_depth = 8, .seed = 3});
-  EXPECT_TRUE(f.ok()) << f.status();
-  return f.ok() ? *std::move(f) : RandomForest();
-}
+RandomForest SmallForest() { return SmallOrbForest(kClasses); }
 
 const std::string& GoodBlob() {
   static const std::string* blob = new std::string(SmallForest().Serialize());
@@ -231,32 +210,11 @@ TEST(ForestCorruptTest, LeavesWithBadRangesClassesOrFractionsAreInvalidArgument)
 
 // A small but complete ORB object database: 2 objects x 3 voxels, k = 3, the forest above.
 ObjectDatabase SmallDatabase() {
-  ObjectDatabaseParams p;
-  p.features.detector = "ORB";
-  p.classes_per_object = kVoxels;
-  p.forest.trees = 3;
-  p.forest.max_depth = 8;
-  absl::StatusOr<ObjectDatabaseParams> resolved = ResolveParams(p);
-  EXPECT_TRUE(resolved.ok()) << resolved.status();
-  std::mt19937 rng(5);
-  std::vector<ObjectModel> objects;
+  std::vector<std::vector<VoxelKey>> voxels(kObjects);
   for (int o = 0; o < kObjects; ++o) {
-    ObjectModel m{.obj_id = 10 + o, .name = absl::StrCat("object ", o)};
-    for (int j = 0; j < kVoxels; ++j) {
-      VoxelModel v{.key = {j, o, 0}, .evidence = uint32_t(10 - j)};
-      v.centroids = DescriptorMatrix(*DetectorLayout("ORB"));
-      uint8_t bits[kDims / 8];
-      for (uint8_t& b : bits) b = static_cast<uint8_t>(rng());
-      v.centroids.AppendBits(bits);
-      v.cardinalities = {v.evidence};
-      m.voxels.push_back(std::move(v));
-    }
-    objects.push_back(std::move(m));
+    for (int j = 0; j < kVoxels; ++j) voxels[o].push_back({j, o, 0});
   }
-  absl::StatusOr<ObjectDatabase> db =
-      ObjectDatabase::Create(*resolved, std::move(objects), SmallForest());
-  EXPECT_TRUE(db.ok()) << db.status();
-  return db.ok() ? *std::move(db) : ObjectDatabase();
+  return SmallOrbDatabase(voxels);
 }
 
 TEST(ObjectDatabaseCorruptTest, RecordsRoundTripBeforeAnyEdit) {

@@ -216,5 +216,43 @@ TEST(EvalCliTest, TheMiniSceneScoresEveryObjectAndWritesTheCsv) {
   EXPECT_FALSE(absl::StrContains(untrained.out, "| all |")) << untrained.out;
 }
 
+// The maps' visibility thresholds from the command line: at 0 every instance the
+// reconciler keeps is listed (to sweep the thresholds from --summary, which gives each
+// instance's score and fit), so there are at least the 3 true ones; a threshold the
+// server refuses is named and no eval map stays.
+TEST(EvalCliTest, VisibilityThresholdsReachTheMapsAndBadOnesAreNamed) {
+  RecognitionWorld& w = World();
+  const std::string scene = std::filesystem::path(w.scene).filename().string();
+  const std::string summary = w.data_dir + "/eval_all.json";
+  const CliRun run = Cli(absl::StrCat("eval ", w.dataset, " --scenes=", scene,
+                                      " --resolution=0.02 --single_view=false --summary=", summary,
+                                      " --min_instance_score=0 --min_instance_fit=0"));
+  ASSERT_EQ(run.exit_code, 0) << run.out;
+  const nlohmann::json s = nlohmann::json::parse(std::ifstream(summary));
+  const nlohmann::json& detections = s["multi_view"]["detections"];
+  EXPECT_GE(detections.size(), 3u);
+  EXPECT_EQ(s["multi_view"]["true_positives"], 3);
+  int true_positives = 0;
+  for (const nlohmann::json& d : detections) {
+    EXPECT_GE(d["fit"].get<double>(), 0);
+    EXPECT_LE(d["fit"].get<double>(), 1);
+    true_positives += d["true_positive"].get<bool>();
+  }
+  EXPECT_EQ(true_positives, 3);
+  // The default thresholds list no more than this.
+  const CliRun strict =
+      Cli(absl::StrCat("eval ", w.dataset, " --scenes=", scene,
+                       " --resolution=0.02 --single_view=false --summary=", summary,
+                       " --min_instance_score=1000000"));
+  ASSERT_EQ(strict.exit_code, 0) << strict.out;
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(summary))["multi_view"]["instances"], 0);
+
+  const CliRun bad = Cli(absl::StrCat("eval ", w.dataset, " --scenes=", scene,
+                                      " --single_view=false --min_instance_fit=2"));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_TRUE(absl::StrContains(bad.out, "min_instance_fit")) << bad.out;
+  EXPECT_TRUE(absl::IsNotFound(w.client->GetMap("maps/eval_" + scene).status()));
+}
+
 }  // namespace
 }  // namespace skimap::testing

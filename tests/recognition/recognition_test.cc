@@ -51,7 +51,7 @@ TEST(RecognitionTest, EveryMiniObjectIsFoundWithinTolerance) {
       EXPECT_EQ(i.object(), absl::StrCat("objects/", t.obj_id));
       EXPECT_FALSE(i.object_name().empty());
       EXPECT_GE(i.score(), 8);
-      EXPECT_GE(i.fit(), 0.35);
+      EXPECT_GE(i.fit(), 0.20);
       EXPECT_GE(i.hypotheses(), 3u);
       EXPECT_GE(i.frames(), 2u);
       EXPECT_LE(i.first_seen().frame_sequence(), i.last_seen().frame_sequence());

@@ -1,0 +1,28 @@
+// A small but complete ORB object database for tests that need one without training:
+// objects with obj_ids 10, 11, ..., each with the given descriptor voxels (one class per
+// voxel, a random centroid each) and a 3-tree forest trained on random bit prototypes.
+//
+//   ObjectDatabase db = SmallOrbDatabase({{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}});
+//
+// Thread safety: pure functions (fixed seeds: the same database every call).
+#ifndef TESTS_OBJECTS_SMALL_DATABASE_H_
+#define TESTS_OBJECTS_SMALL_DATABASE_H_
+
+#include <vector>
+
+#include "perception/objects/object_database.h"
+#include "perception/objects/random_forest.h"
+
+namespace skimap::objects {
+
+inline constexpr int kSmallDims = 256;  // ORB: 256 bits, one 0/1 feature each
+
+// A forest of 3 trees (depth 8) over `classes` classes of kSmallDims features.
+RandomForest SmallOrbForest(int classes);
+
+// REQUIRES: every object has the same number of voxels (the classes per object), >= 1.
+ObjectDatabase SmallOrbDatabase(const std::vector<std::vector<VoxelKey>>& voxels_per_object);
+
+}  // namespace skimap::objects
+
+#endif  // TESTS_OBJECTS_SMALL_DATABASE_H_
