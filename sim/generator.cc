@@ -129,7 +129,7 @@ absl::StatusOr<GeneratorStats> Generate(const GeneratorOptions& o) {
   if (o.motion_blur < 0 || o.speed_scale <= 0 || o.threads < 1) {
     return absl::InvalidArgumentError("motion_blur >= 0, speed_scale > 0, threads >= 1 required");
   }
-  absl::StatusOr<std::vector<Texture>> textures = LoadTextures(o.texture_dir);
+  absl::StatusOr<std::vector<Texture>> textures = LoadTextures(o.texture_dir, 256, kSceneTextures);
   if (!textures.ok()) return textures.status();
   const std::vector<ObjectModel> objects = MakeDatabaseObjects(*textures, preset->objects);
   const std::vector<Mesh> distractors = MakeDistractors(*textures, 4);

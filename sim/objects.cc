@@ -94,7 +94,30 @@ void CentreMesh(Mesh& mesh) {
   for (Vector3f& p : mesh.positions) p -= c;
 }
 
-absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side) {
+namespace {
+
+// The picture in `file` if usable as a texture (colour, at least 64x64 px), else empty.
+cv::Mat ReadTexturePicture(const std::string& file) {
+  cv::Mat img = cv::imread(file, cv::IMREAD_COLOR);
+  if (img.empty() || img.cols < 64 || img.rows < 64) return {};
+  // Skip nearly grey images (calibration boards, masks): they make poor object textures.
+  cv::Mat hsv;
+  cv::cvtColor(img, hsv, cv::COLOR_BGR2HSV);
+  if (cv::mean(hsv)[1] < 40) return {};
+  return img;
+}
+
+Texture Scaled(const cv::Mat& img, int max_side) {
+  const double s = std::min(1.0, static_cast<double>(max_side) / std::max(img.cols, img.rows));
+  cv::Mat small;
+  cv::resize(img, small, cv::Size(), s, s, cv::INTER_AREA);
+  return std::make_shared<const cv::Mat>(std::move(small));
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side,
+                                                  int min_count) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
@@ -111,22 +134,33 @@ absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int ma
   }
   std::sort(files.begin(), files.end());
   std::vector<Texture> out;
+  std::vector<std::string> usable;
   for (const std::string& f : files) {
-    cv::Mat img = cv::imread(f, cv::IMREAD_COLOR);
-    if (img.empty() || img.cols < 64 || img.rows < 64) continue;
-    // Skip nearly grey images (calibration boards, masks): they make poor object textures.
-    cv::Mat hsv;
-    cv::cvtColor(img, hsv, cv::COLOR_BGR2HSV);
-    if (cv::mean(hsv)[1] < 40) continue;
-    const double s = std::min(1.0, static_cast<double>(max_side) / std::max(img.cols, img.rows));
-    cv::Mat small;
-    cv::resize(img, small, cv::Size(), s, s, cv::INTER_AREA);
-    out.push_back(std::make_shared<const cv::Mat>(std::move(small)));
+    const cv::Mat img = ReadTexturePicture(f);
+    if (img.empty()) continue;
+    out.push_back(Scaled(img, max_side));
+    usable.push_back(f);
   }
   if (out.empty()) {
     return absl::NotFoundError(absl::StrCat(dir, ": no colour .jpg/.png image of >= 64x64 px"));
   }
-  return out;
+  if (static_cast<int>(out.size()) >= min_count) return out;
+  int k = 2;
+  while (k < 4 && static_cast<int>(usable.size()) * k * k < min_count) ++k;
+  std::vector<Texture> tiles;
+  for (const std::string& f : usable) {
+    const cv::Mat img = ReadTexturePicture(f);
+    const int w = img.cols / k, h = img.rows / k;
+    if (w < 64 || h < 64) {
+      tiles.push_back(Scaled(img, max_side));
+      continue;
+    }
+    for (int ty = 0; ty < k; ++ty) {
+      for (int tx = 0; tx < k; ++tx)
+        tiles.push_back(Scaled(img(cv::Rect(tx * w, ty * h, w, h)), max_side));
+    }
+  }
+  return tiles;
 }
 
 std::vector<size_t> RankByDetail(const std::vector<Texture>& textures) {

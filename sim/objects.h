@@ -19,8 +19,12 @@ inline constexpr char kDefaultTextureDir[] = "/usr/share/doc/opencv-doc/examples
 
 // Loads every .jpg/.jpeg/.png/.webp in `dir` (sorted by name; not recursive) that is a colour-
 // able image of at least 64x64 px, scaled so the longer side is at most max_side px.
-// kNotFound if the folder is missing or holds no usable image.
-absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side = 256);
+// When that gives fewer than `min_count` textures, each picture is instead cut into k x k
+// tiles (the smallest k, at most 4, that gives min_count; tiles under 64 px dropped), each
+// scaled the same way: a folder of a few large pictures (wallpapers) still gives every
+// object a print of its own. kNotFound if the folder is missing or holds no usable image.
+absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int max_side = 256,
+                                                  int min_count = 0);
 
 // A database object: BOP obj_id, a short name, and its mesh with the origin at the centre
 // of its bounding box (BOP convention), z up when standing.
@@ -32,6 +36,10 @@ struct ObjectModel {
 
 // The number of distinct database object designs (ids 1..kNumObjectDesigns).
 inline constexpr int kNumObjectDesigns = 12;
+
+// Textures a scene draws on: a print and a secondary part per object design, four
+// distractors and the floor (MakeDatabaseObjects, MakeDistractors, BuildStructureMesh).
+inline constexpr int kSceneTextures = 2 * kNumObjectDesigns + 4 + 1;
 
 // Texture indices by detail, most detailed first (distinct ORB keypoints per pixel); near
 // twins of a picture ranked before them (thumbnails correlating above 0.6), dull pictures
