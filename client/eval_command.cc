@@ -142,6 +142,7 @@ void AddDetections(const std::string& scene, const std::vector<v1::Instance>& in
                     {"obj_id", instances[i].obj_id()},
                     {"score", instances[i].score()},
                     {"fit", instances[i].fit()},
+                    {"view_conflict", instances[i].view_conflict()},
                     {"true_positive", static_cast<bool>(matched[i])}});
   }
 }
@@ -217,6 +218,9 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
     }
     if (options.min_instance_fit) {
       stream.recognition->set_min_instance_fit(*options.min_instance_fit);
+    }
+    if (options.max_view_conflict) {
+      stream.recognition->set_max_view_conflict(*options.max_view_conflict);
     }
     const std::string map = "maps/" + stream.map_id;
     if (absl::Status s = client.DeleteMap(map); !s.ok() && !absl::IsNotFound(s)) return s;

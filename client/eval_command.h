@@ -56,7 +56,7 @@ struct EvalOptions {
   bool keep_maps = false;
   bool single_view = true;  // also run the single-view baseline
   // The maps' visibility thresholds (RecognitionOptions); unset: the server's defaults.
-  std::optional<double> min_instance_score, min_instance_fit;
+  std::optional<double> min_instance_score, min_instance_fit, max_view_conflict;
   SingleViewOptions single_view_options;
 };
 

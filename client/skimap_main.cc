@@ -70,6 +70,8 @@ ABSL_FLAG(double, min_instance_score, -1,
           "the server's default; 0 lists all, to sweep the threshold from --summary)");
 ABSL_FLAG(double, min_instance_fit, -1,
           "eval: the maps' min_instance_fit (-1 = the server's default)");
+ABSL_FLAG(double, max_view_conflict, -1,
+          "eval: the maps' max_view_conflict (-1 = the server's default; 1 lists all)");
 ABSL_FLAG(bool, single_view, true,
           "eval: also score the single-view baseline (each frame alone: ClassifyImage + PnP)");
 ABSL_FLAG(std::string, instances_dir, "",
@@ -267,7 +269,7 @@ int main(int argc, char** argv) {
       "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
       "[--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10] [--csv=FILE] "
       "[--instances_dir=DIR] [--summary=FILE] [--single_view=false] [--keep_maps] [--train] "
-      "[--min_instance_score=S] [--min_instance_fit=F]");
+      "[--min_instance_score=S] [--min_instance_fit=F] [--max_view_conflict=V]");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -312,6 +314,9 @@ int main(int argc, char** argv) {
     }
     if (const double v = absl::GetFlag(FLAGS_min_instance_fit); v != -1) {
       options.min_instance_fit = v;
+    }
+    if (const double v = absl::GetFlag(FLAGS_max_view_conflict); v != -1) {
+      options.max_view_conflict = v;
     }
     if (options.every < 1) return Fail(absl::InvalidArgumentError("--every must be at least 1"));
     if (absl::GetFlag(FLAGS_train)) {

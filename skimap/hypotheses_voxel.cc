@@ -87,8 +87,12 @@ InstancesVoxel& InstancesVoxel::operator-=(const InstancesVoxel& o) {
   return *this;
 }
 
+// Bit 31 of an InstancesVoxel's count: its items carry the view counts (every writer since
+// 2026-11-27; earlier files lack them and read as 0).
+constexpr uint32_t kWithViewCounts = 0x80000000u;
+
 void InstancesVoxel::Encode(Encoder& e) const {
-  e.U32(static_cast<uint32_t>(items_.size()));
+  e.U32(static_cast<uint32_t>(items_.size()) | kWithViewCounts);
   for (const Instance& i : items_) {
     e.U64(i.id);
     e.U32(i.object_id);
@@ -103,13 +107,18 @@ void InstancesVoxel::Encode(Encoder& e) const {
     e.F32(i.spread_t);
     e.F32(i.spread_r);
     e.F32(i.fit);
+    e.U32(i.view_agree);
+    e.U32(i.view_conflict);
   }
 }
 
 bool InstancesVoxel::Decode(Decoder& d, InstancesVoxel* v) {
-  constexpr size_t kBytes = 8 + 4 + 7 * 4 + 4 + 4 + 4 + 4 * 8 + 3 * 4;
   uint32_t n;
-  if (!d.U32(&n) || n > d.remaining() / kBytes) return false;
+  if (!d.U32(&n)) return false;
+  const bool with_view = (n & kWithViewCounts) != 0;
+  n &= ~kWithViewCounts;
+  const size_t bytes = 8 + 4 + 7 * 4 + 4 + 4 + 4 + 4 * 8 + 3 * 4 + (with_view ? 8 : 0);
+  if (n > d.remaining() / bytes) return false;
   std::vector<Instance> items(n);
   for (size_t k = 0; k < items.size(); ++k) {
     Instance& i = items[k];
@@ -117,7 +126,8 @@ bool InstancesVoxel::Decode(Decoder& d, InstancesVoxel* v) {
     if (!d.U64(&i.id) || !d.U32(&i.object_id) || !DecodePose(d, &i.t, &i.q) || !d.F32(&i.score) ||
         !d.U32(&i.support) || !d.U32(&i.frames) || !d.U64(&i.first_frame) ||
         !d.U64(&i.last_frame) || !d.U64(&first_time) || !d.U64(&last_time) || !d.F32(&i.spread_t) ||
-        !d.F32(&i.spread_r) || !d.F32(&i.fit)) {
+        !d.F32(&i.spread_r) || !d.F32(&i.fit) ||
+        (with_view && (!d.U32(&i.view_agree) || !d.U32(&i.view_conflict)))) {
       return false;
     }
     i.first_time_us = static_cast<int64_t>(first_time);

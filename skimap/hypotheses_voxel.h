@@ -42,8 +42,18 @@ struct Instance {
   float spread_t = 0;  // RMS distance of the supporting hypotheses to t, metres
   float spread_r = 0;  // RMS angle of their rotations to q, radians
   float fit = 0;       // agreement with the map's surface and colour, 0..1
+  // View consistency, summed over the recognised frames that saw the instance: its surface
+  // points that agreed with the frame's depth, and those in front of it (space the camera
+  // saw through).
+  uint32_t view_agree = 0, view_conflict = 0;
   friend bool operator==(const Instance&, const Instance&) = default;
 };
+
+// view_conflict / (view_agree + view_conflict), 0 without view evidence.
+inline float ViewConflict(const Instance& i) {
+  const uint64_t n = uint64_t{i.view_agree} + i.view_conflict;
+  return n == 0 ? 0.0f : static_cast<float>(i.view_conflict) / static_cast<float>(n);
+}
 
 class HypothesesVoxel {
  public:

@@ -88,6 +88,52 @@ SurfaceFit FitSurface(const Volume& rgb, const recognition::ObjectShape& shape,
   return fit;
 }
 
+// The view check: the object's surface points at `pose`, projected into the frame. The
+// trained surface is voxels (1 cm), so a point may lie up to kViewSlack off the true
+// surface, sideways too: each point looks at 3 x 3 pixels spanning kViewSlack around its
+// own. It agrees when one of them measured within kViewTolerance of its depth; it
+// conflicts (the camera saw through it) when at least 5 of them measured and all lie more
+// than kViewTolerance behind it; otherwise (occluded, unmeasured, at a silhouette) it
+// counts for neither.
+constexpr float kViewTolerance = 0.015f;  // metres
+constexpr float kViewSlack = 0.01f;       // metres
+
+void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& pose,
+               const ViewFrame& view, uint32_t* agree, uint32_t* conflict) {
+  const perception::PinholeCamera& cam = view.camera;
+  const perception::DepthImage& depth = *view.depth;
+  const Eigen::Isometry3f to_camera = view.camera_from_world * pose;
+  for (const recognition::SurfacePoint& s : shape.surface) {
+    const Eigen::Vector3f p = to_camera * s.p;
+    if (!(p.z() > 0)) continue;
+    const long u = std::lround(cam.fx * p.x() / p.z() + cam.cx);
+    const long v = std::lround(cam.fy * p.y() / p.z() + cam.cy);
+    const long r = std::max(1L, std::lround(cam.fx * kViewSlack / p.z()));
+    int measured = 0, behind = 0;
+    bool agrees = false;
+    for (long dv = -r; dv <= r; dv += r) {
+      for (long du = -r; du <= r; du += r) {
+        const long x = u + du, y = v + dv;
+        if (x < 0 || y < 0 || x >= depth.width || y >= depth.height) continue;
+        const uint16_t raw = depth.pixels[static_cast<size_t>(y) * depth.width + x];
+        if (raw == 0) continue;
+        ++measured;
+        const float z = static_cast<float>(raw * view.depth_scale);
+        agrees |= std::abs(p.z() - z) <= kViewTolerance;
+        behind += z > p.z() + kViewTolerance;
+      }
+    }
+    if (agrees) {
+      ++*agree;
+    } else if (measured >= 5 && behind == measured) {
+      ++*conflict;
+    }
+  }
+}
+
+// The view conflict as the API gives it: rounded to 0.01 (events follow its changes).
+double RoundedConflict(const Instance& i) { return std::round(ViewConflict(i) * 100) / 100; }
+
 // The pose of an instance as a transform (world <- model).
 Eigen::Isometry3f PoseOf(const Instance& i) {
   Eigen::Isometry3f pose = Eigen::Isometry3f::Identity();
@@ -271,7 +317,8 @@ class Reconciler {
   }
 
   bool Visible(const Instance& i) const {
-    return i.id != 0 && i.score >= params_.min_instance_score && i.fit >= params_.min_instance_fit;
+    return i.id != 0 && i.score >= params_.min_instance_score &&
+           i.fit >= params_.min_instance_fit && ViewConflict(i) <= params_.max_view_conflict;
   }
 
   void Update(Instance& inst, const InstanceEstimate& e, uint32_t obj_id) {
@@ -285,6 +332,15 @@ class Reconciler {
     inst.spread_t = e.spread_t;
     inst.spread_r = e.spread_r;
     inst.fit = e.fit;
+    if (request_.view != nullptr) {
+      // The evidence of earlier frames fades (by an eighth per frame, rounded up): it was
+      // counted at earlier estimates of the pose, and an instance whose pose became right
+      // recovers.
+      inst.view_agree -= (inst.view_agree + 7) / 8;
+      inst.view_conflict -= (inst.view_conflict + 7) / 8;
+      CountView(model_.object(request_.object_index), PoseOf(inst), *request_.view,
+                &inst.view_agree, &inst.view_conflict);
+    }
     if (request_.frame_supports && e.last_frame == request_.frame) {
       inst.last_frame = request_.frame;
       inst.last_time_us = request_.frame_time_us;
@@ -348,12 +404,17 @@ class Reconciler {
       for (size_t b = a + 1; b < existing->size(); ++b) {
         Instance& younger = (*existing)[b].instance;
         if (younger.id == 0 || (PositionOf(younger) - PositionOf(older)).norm() > d) continue;
+        const Instance before = older;
         if (Better(younger, older)) {  // the better estimate wins, the older id stays
-          const Instance before = older;
           older = younger;
           older.id = before.id;
           older.first_frame = before.first_frame;
           older.first_time_us = before.first_time_us;
+        }
+        // Both saw the same object: their view evidence adds up.
+        older.view_agree = before.view_agree + younger.view_agree;
+        older.view_conflict = before.view_conflict + younger.view_conflict;
+        if (!(older == before)) {
           Put(older);
           Transition(before, older);
         }
@@ -447,6 +508,7 @@ v1::Instance ToProto(const Instance& i, const recognition::RecognitionModel* mod
   out.mutable_spread()->set_translation_m(i.spread_t);
   out.mutable_spread()->set_rotation_deg(i.spread_r * 180 / M_PI);
   out.set_fit(i.fit);
+  out.set_view_conflict(RoundedConflict(i));
   return out;
 }
 

@@ -29,24 +29,37 @@
 #include <cstdint>
 #include <string>
 
+#include "perception/image_codec.h"
 #include "perception/recognition/pose_voting.h"
 #include "perception/recognition/recognition_model.h"
+#include "perception/rgbd_frame.h"
 #include "server/maps/map_state.h"
 
 namespace skimap::server {
 
+// A recognised frame's depth, to check instances against what the camera saw (the view
+// conflict, skimap/hypotheses_voxel.h Instance::view_conflict).
+struct ViewFrame {
+  const perception::DepthImage* depth = nullptr;  // not owned; REQUIRES non-null
+  double depth_scale = 0;                         // metres per depth unit
+  perception::PinholeCamera camera;
+  Eigen::Isometry3f camera_from_world = Eigen::Isometry3f::Identity();
+};
+
 struct ReconcileRequest {
-  int object_index = 0;         // in the recognition model
-  recognition::Sphere region;   // world
-  uint64_t frame = 0;           // the frame that caused it (events, sightings)
-  int64_t frame_time_us = 0;    // its timestamp
-  bool frame_supports = false;  // the frame added hypotheses of this object (sightings)
+  int object_index = 0;             // in the recognition model
+  recognition::Sphere region;       // world
+  uint64_t frame = 0;               // the frame that caused it (events, sightings)
+  int64_t frame_time_us = 0;        // its timestamp
+  bool frame_supports = false;      // the frame added hypotheses of this object (sightings)
+  const ViewFrame* view = nullptr;  // the frame's depth, if any: instances it updates count it
 };
 
 struct ReconcileParams {
   std::string map_id;
   double min_instance_score = 8;
   double min_instance_fit = 0.20;
+  double max_view_conflict = 0.15;
   float inlier_distance = 0.02f;
 };
 

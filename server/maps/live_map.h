@@ -285,8 +285,8 @@ class LiveMap {
     recognition::PoseEstimate estimate;
   };
   // Worker: adds a frame's hypotheses and reconciles the instances of their objects.
-  void ApplyHypothesesOnWorker(const RecognitionJob& job, const recognition::Sphere& sphere,
-                               const std::vector<Voted>& voted);
+  void ApplyHypothesesOnWorker(const RecognitionJob& job, const perception::CameraPose& pose,
+                               const recognition::Sphere& sphere, const std::vector<Voted>& voted);
   // Worker, UpdatePoses: stages the labels of recognised frame `frame` (its old and new
   // pose) and returns what must move in the recognition volumes under the write's lock.
   void StageRecognitionMove(uint64_t sequence, const perception::RgbdFrame& frame,

@@ -94,7 +94,8 @@ void LiveMap::ObserveOnThread(RecognitionJob& job) {
   if (!Refused().ok()) return;
   const perception::IntegrationOptions& io = options_.config.integration;
   job.observed = thread_observer_->Observe(*job.frame, io.min_depth, io.max_depth);
-  job.frame.reset();  // the labels are all the next step needs
+  // The frame stays with the job: `run` checks instances against its depth (the view
+  // conflict). At most one prepared job waits, so this holds one frame more.
 }
 
 void LiveMap::RecognizeOnThread(RecognitionJob& job) {
@@ -143,7 +144,7 @@ void LiveMap::RecognizeOnThread(RecognitionJob& job) {
       voted.push_back({o, e});
     }
   }
-  queue_.Run([&] { ApplyHypothesesOnWorker(job, sphere, voted); });
+  queue_.Run([&] { ApplyHypothesesOnWorker(job, *pose, sphere, voted); });
 }
 
 std::optional<perception::CameraPose> LiveMap::ApplyLabelsOnWorker(
@@ -171,7 +172,8 @@ std::optional<perception::CameraPose> LiveMap::ApplyLabelsOnWorker(
   return entry->pose;
 }
 
-void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const recognition::Sphere& sphere,
+void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perception::CameraPose& pose,
+                                      const recognition::Sphere& sphere,
                                       const std::vector<Voted>& voted) {
   if (!Refused().ok()) return;
   std::set<int> objects;
@@ -211,14 +213,20 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const recogniti
     const ReconcileParams params{
         .map_id = id_,
         .min_instance_score = options_.config.recognition.min_instance_score,
-        .min_instance_fit = options_.config.recognition.min_instance_fit};
+        .min_instance_fit = options_.config.recognition.min_instance_fit,
+        .max_view_conflict = options_.config.recognition.max_view_conflict};
+    const ViewFrame view{.depth = &job.frame->depth,
+                         .depth_scale = job.frame->depth_scale,
+                         .camera = job.frame->camera,
+                         .camera_from_world = Isometry(pose).inverse().cast<float>()};
     for (int o : objects) {
       events += ReconcileInstances(*model_, params,
                                    {.object_index = o,
                                     .region = sphere,
                                     .frame = job.sequence,
                                     .frame_time_us = job.time_us,
-                                    .frame_supports = true},
+                                    .frame_supports = true,
+                                    .view = &view},
                                    &state_);
     }
   }
@@ -287,7 +295,8 @@ void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
   hypothesis_moves_.clear();
   const ReconcileParams params{.map_id = id_,
                                .min_instance_score = options_.config.recognition.min_instance_score,
-                               .min_instance_fit = options_.config.recognition.min_instance_fit};
+                               .min_instance_fit = options_.config.recognition.min_instance_fit,
+                               .max_view_conflict = options_.config.recognition.max_view_conflict};
   // Twice: the second pass sees every object's instances in their new places (one object's
   // instance can rule out another's where they would overlap).
   for (int pass = 0; pass < 2; ++pass) {

@@ -112,7 +112,8 @@ absl::StatusOr<v1::ListInstancesResponse> MapService::ListInstances(
     s.instances.ForEach([&](const VoxelKey&, const InstancesVoxel& voxel) {
       for (const Instance& i : voxel.items()) {
         if (i.id <= after || i.score < min_score ||
-            i.fit < m.config().recognition.min_instance_fit || !(*in_region)(i)) {
+            i.fit < m.config().recognition.min_instance_fit ||
+            ViewConflict(i) > m.config().recognition.max_view_conflict || !(*in_region)(i)) {
           continue;
         }
         if (!objects.empty() && std::find(objects.begin(), objects.end(),
@@ -163,7 +164,8 @@ absl::StatusOr<v1::Instance> MapService::GetInstance(const v1::GetInstanceReques
     return std::nullopt;
   });
   if (!found.has_value() || found->score < m.config().recognition.min_instance_score ||
-      found->fit < m.config().recognition.min_instance_fit) {
+      found->fit < m.config().recognition.min_instance_fit ||
+      ViewConflict(*found) > m.config().recognition.max_view_conflict) {
     return absl::NotFoundError(absl::StrCat("instance ", id, " not found in ", MapName(m.id())));
   }
   return ToProto(*found, m.recognition_model(), m.id());

@@ -67,6 +67,12 @@ absl::StatusOr<RecognitionConfig> ResolveRecognitionOptions(const v1::Recognitio
     }
     c.min_instance_fit = o.min_instance_fit();
   }
+  if (o.has_max_view_conflict()) {
+    if (!(o.max_view_conflict() >= 0 && o.max_view_conflict() <= 1)) {
+      return Bad("max_view_conflict", "must be in [0, 1]");
+    }
+    c.max_view_conflict = o.max_view_conflict();
+  }
   switch (o.policy()) {
     case v1::RecognitionOptions::POLICY_UNSPECIFIED:
     case v1::RecognitionOptions::NEWEST:
@@ -95,6 +101,7 @@ v1::RecognitionOptions ToProto(const RecognitionConfig& c) {
                              : v1::RecognitionOptions::NEWEST);
   o.set_min_instance_score(c.min_instance_score);
   o.set_min_instance_fit(c.min_instance_fit);
+  o.set_max_view_conflict(c.max_view_conflict);
   return o;
 }
 

@@ -21,8 +21,9 @@ struct RecognitionConfig {
   int triples = 2000;
   double hough_bin = 0.02;
   bool every_frame = false;  // policy EVERY_FRAME (else NEWEST)
-  double min_instance_score = 100;
+  double min_instance_score = 60;
   double min_instance_fit = 0.20;
+  double max_view_conflict = 0.15;
   friend bool operator==(const RecognitionConfig&, const RecognitionConfig&) = default;
 };
 

@@ -6,6 +6,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "perception/objects/database_io.h"
+#include "skimap/serialization.h"
+#include "skimap/skimap.h"
+#include "skimap/voxel.h"
 
 namespace skimap::objects {
 
@@ -31,7 +34,8 @@ RandomForest SmallOrbForest(int classes) {
   return f.ok() ? *std::move(f) : RandomForest();
 }
 
-ObjectDatabase SmallOrbDatabase(const std::vector<std::vector<VoxelKey>>& voxels_per_object) {
+ObjectDatabase SmallOrbDatabase(const std::vector<std::vector<VoxelKey>>& voxels_per_object,
+                                bool with_surface) {
   const int per_object = static_cast<int>(voxels_per_object.at(0).size());
   ObjectDatabaseParams p;
   p.features.detector = "ORB";
@@ -52,6 +56,11 @@ ObjectDatabase SmallOrbDatabase(const std::vector<std::vector<VoxelKey>>& voxels
       v.centroids.AppendBits(bits);
       v.cardinalities = {v.evidence};
       m.voxels.push_back(std::move(v));
+    }
+    if (with_surface) {
+      SkiMap<RGBWeightedVoxel> rgb({.resolution = resolved->resolution});
+      for (const VoxelKey& k : voxels_per_object[o]) rgb.IntegrateKey(k, {128, 128, 128, 1});
+      m.rgb_volume = SerializeMap(rgb);
     }
     objects.push_back(std::move(m));
   }

@@ -6,6 +6,7 @@
 // below were measured once (2026-11-24) and hold on every run.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
 #include <random>
 #include <set>
@@ -42,9 +43,11 @@ TEST(RecognitionTest, EveryMiniObjectIsFoundWithinTolerance) {
     for (const v1::Instance& i : found) {
       if (i.obj_id() != t.obj_id) continue;
       ++matches;
-      std::printf("[ measured ] object %d: %.1f mm, %.1f degrees, score %.0f, fit %.2f\n", t.obj_id,
-                  1000 * TranslationError(i, t.pose), RotationErrorDeg(i, t.pose), i.score(),
-                  i.fit());
+      std::printf(
+          "[ measured ] object %d: %.1f mm, %.1f degrees, score %.0f, fit %.2f, view conflict "
+          "%.2f\n",
+          t.obj_id, 1000 * TranslationError(i, t.pose), RotationErrorDeg(i, t.pose), i.score(),
+          i.fit(), i.view_conflict());
       EXPECT_LE(TranslationError(i, t.pose), 0.03) << "object " << t.obj_id;
       EXPECT_LE(RotationErrorDeg(i, t.pose), 10) << "object " << t.obj_id;
       EXPECT_EQ(i.name(), absl::StrCat("maps/scene/instances/", i.id()));
@@ -52,6 +55,9 @@ TEST(RecognitionTest, EveryMiniObjectIsFoundWithinTolerance) {
       EXPECT_FALSE(i.object_name().empty());
       EXPECT_GE(i.score(), 8);
       EXPECT_GE(i.fit(), 0.20);
+      // Seen by the frames that recognised it, where the camera saw it (measured
+      // 2026-11-27: 0.00-0.05).
+      EXPECT_LE(i.view_conflict(), 0.15);
       EXPECT_GE(i.hypotheses(), 3u);
       EXPECT_GE(i.frames(), 2u);
       EXPECT_LE(i.first_seen().frame_sequence(), i.last_seen().frame_sequence());
@@ -254,6 +260,14 @@ TEST(RecognitionTest, BadRequestsGetInvalidArgumentNamingTheField) {
   refused = w.client->CreateMap(unknown);
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_TRUE(absl::StrContains(refused.status().message(), "recognition.sphere_radius"));
+  unknown.mutable_options()->mutable_recognition()->clear_sphere_radius();
+  for (double bad : {-0.1, 1.5, std::nan("")}) {
+    unknown.mutable_options()->mutable_recognition()->set_max_view_conflict(bad);
+    refused = w.client->CreateMap(unknown);
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_TRUE(absl::StrContains(refused.status().message(), "recognition.max_view_conflict"))
+        << refused.status();
+  }
 }
 
 // Last: these change the world (a restart, then a pose update).

@@ -9,6 +9,7 @@
 #include <memory>
 #include <vector>
 
+#include "perception/image_codec.h"
 #include "tests/objects/small_database.h"
 
 namespace skimap::server {
@@ -25,39 +26,43 @@ std::shared_ptr<const objects::ObjectDatabase> Database() {
   return *db;
 }
 
+// The object's labels where the object at `pose` puts them, 5 observations each.
+void AddLabelsAt(const recognition::RecognitionModel& model, const Eigen::Isometry3f& pose,
+                 MapState* state) {
+  Eigen::Vector3f v;
+  int object = -1;
+  for (uint32_t c = 0; model.ClassPoint(c, &v, &object); ++c) {
+    const Eigen::Vector3f w = pose * v;
+    VoxelKey key;
+    ASSERT_TRUE(state->labels.grid().ToKey(w.x(), w.y(), w.z(), &key));
+    state->labels.IntegrateKey(key, MultiLabelVoxel(c, 5));
+  }
+}
+
+// Four hypotheses of the object at `pose`, from frames 1 to 4.
+void AddHypothesesAt(const Eigen::Isometry3f& pose, MapState* state) {
+  const Eigen::Quaternionf q(pose.linear());
+  const Eigen::Vector3f t = pose.translation();
+  for (uint64_t frame : {1, 2, 3, 4}) {
+    const Hypothesis h{.t = {t.x(), t.y(), t.z()},
+                       .q = {q.w(), q.x(), q.y(), q.z()},
+                       .object_id = kObjId,
+                       .score = 15,
+                       .frame = frame};
+    VoxelKey key;
+    ASSERT_TRUE(state->hypotheses.grid().ToKey(t.x(), t.y(), t.z(), &key));
+    state->hypotheses.IntegrateKey(key, HypothesesVoxel(h));
+  }
+}
+
 class ReconcilerTest : public ::testing::Test {
  protected:
   ReconcilerTest() : model_(*recognition::RecognitionModel::Create(Database(), {})) {}
 
   const recognition::ObjectShape& shape() const { return model_.object(0); }
 
-  // The object's labels where the object at `pose` puts them, 5 observations each.
-  void AddLabels(const Eigen::Isometry3f& pose) {
-    Eigen::Vector3f v;
-    int object = -1;
-    for (uint32_t c = 0; model_.ClassPoint(c, &v, &object); ++c) {
-      const Eigen::Vector3f w = pose * v;
-      VoxelKey key;
-      ASSERT_TRUE(state_.labels.grid().ToKey(w.x(), w.y(), w.z(), &key));
-      state_.labels.IntegrateKey(key, MultiLabelVoxel(c, 5));
-    }
-  }
-
-  // Four hypotheses of the object at `pose`, from frames 1 to 4.
-  void AddHypotheses(const Eigen::Isometry3f& pose) {
-    const Eigen::Quaternionf q(pose.linear());
-    const Eigen::Vector3f t = pose.translation();
-    for (uint64_t frame : {1, 2, 3, 4}) {
-      const Hypothesis h{.t = {t.x(), t.y(), t.z()},
-                         .q = {q.w(), q.x(), q.y(), q.z()},
-                         .object_id = kObjId,
-                         .score = 15,
-                         .frame = frame};
-      VoxelKey key;
-      ASSERT_TRUE(state_.hypotheses.grid().ToKey(t.x(), t.y(), t.z(), &key));
-      state_.hypotheses.IntegrateKey(key, HypothesesVoxel(h));
-    }
-  }
+  void AddLabels(const Eigen::Isometry3f& pose) { AddLabelsAt(model_, pose, &state_); }
+  void AddHypotheses(const Eigen::Isometry3f& pose) { AddHypothesesAt(pose, &state_); }
 
   // An existing instance of the object at `t` (identity rotation).
   void PutInstance(uint64_t id, const Eigen::Vector3f& t, float score) {
@@ -148,6 +153,131 @@ TEST_F(ReconcilerTest, AnInstanceBeyondTheMatchDistanceStaysApart) {
   AddHypotheses(At(t + Eigen::Vector3f(0, 0, d + 0.05f)));
   Reconcile({.centre = Eigen::Vector3f::Zero(), .radius = 0.5f});
   EXPECT_EQ(Instances().size(), 2u);
+}
+
+// The same object with a surface (its 6 voxels), seen by a camera at the world origin
+// looking along +z (64 x 48 px, f = 50 px).
+class ReconcilerViewTest : public ::testing::Test {
+ protected:
+  static std::shared_ptr<const objects::ObjectDatabase> SurfaceDatabase() {
+    static const auto* db = new std::shared_ptr<const objects::ObjectDatabase>(
+        std::make_shared<objects::ObjectDatabase>(objects::SmallOrbDatabase(
+            {{{0, 0, 0}, {4, 0, 0}, {0, 4, 0}, {0, 0, 4}, {4, 4, 0}, {4, 0, 4}}}, true)));
+    return *db;
+  }
+  ReconcilerViewTest() : model_(*recognition::RecognitionModel::Create(SurfaceDatabase(), {})) {
+    view_.camera = {.fx = 50, .fy = 50, .cx = 32, .cy = 24, .width = 64, .height = 48};
+    view_.depth_scale = 0.001;
+    depth_.width = 64;
+    depth_.height = 48;
+    depth_.pixels.assign(64 * 48, 0);
+    view_.depth = &depth_;
+  }
+
+  // Labels and hypotheses of the object at `pose`.
+  void Observe(const Eigen::Isometry3f& pose) {
+    AddLabelsAt(model_, pose, &state_);
+    AddHypothesesAt(pose, &state_);
+  }
+
+  // The depth the camera measures of the object's surface points at `pose` (a pixel keeps
+  // its nearest point); every other pixel measures `background` metres (0: nothing).
+  void RenderDepth(const Eigen::Isometry3f& pose, double background) {
+    std::fill(depth_.pixels.begin(), depth_.pixels.end(),
+              static_cast<uint16_t>(std::lround(background * 1000)));
+    std::vector<bool> drawn(depth_.pixels.size(), false);
+    for (const recognition::SurfacePoint& s : model_.object(0).surface) {
+      const Eigen::Vector3f p = pose * s.p;
+      const long u = std::lround(50 * p.x() / p.z() + 32), v = std::lround(50 * p.y() / p.z() + 24);
+      ASSERT_TRUE(u >= 0 && u < 64 && v >= 0 && v < 48);
+      const size_t i = static_cast<size_t>(v) * 64 + u;
+      const auto mm = static_cast<uint16_t>(std::lround(p.z() * 1000));
+      if (!drawn[i] || mm < depth_.pixels[i]) depth_.pixels[i] = mm;
+      drawn[i] = true;
+    }
+  }
+
+  Instance Only() const {
+    std::vector<Instance> out;
+    state_.instances.ForEach([&](const VoxelKey&, const InstancesVoxel& v) {
+      out.insert(out.end(), v.items().begin(), v.items().end());
+    });
+    EXPECT_EQ(out.size(), 1u);
+    return out.empty() ? Instance{} : out[0];
+  }
+
+  // What a recognised frame does: reconcile the object, checking the instances it updates
+  // against the frame's depth. The events.
+  int Reconcile(const Eigen::Vector3f& centre) {
+    return ReconcileInstances(model_,
+                              {.map_id = "m", .min_instance_score = 8, .min_instance_fit = 0},
+                              {.object_index = 0,
+                               .region = {.centre = centre, .radius = 0.5f},
+                               .frame = 5,
+                               .frame_supports = true,
+                               .view = &view_},
+                              &state_);
+  }
+
+  std::vector<v1::InstanceEvent::Type> EventTypes() const {
+    std::vector<v1::InstanceEvent> events;
+    EXPECT_TRUE(state_.recognition.log.After(0, 1000, &events).ok());
+    std::vector<v1::InstanceEvent::Type> out;
+    for (const v1::InstanceEvent& e : events) out.push_back(e.type());
+    return out;
+  }
+
+  recognition::RecognitionModel model_;
+  perception::DepthImage depth_;
+  ViewFrame view_;
+  MapConfig config_;
+  MapState state_{config_, nullptr};
+};
+
+TEST_F(ReconcilerViewTest, AnInstanceWhereTheCameraSawItAgreesAndIsListed) {
+  ASSERT_EQ(model_.object(0).surface.size(), 6u);
+  const Eigen::Isometry3f pose = At({0, 0, 1});
+  Observe(pose);
+  RenderDepth(pose, 0);
+  EXPECT_EQ(Reconcile(pose.translation()), 1);
+  EXPECT_EQ(EventTypes(), std::vector<v1::InstanceEvent::Type>{v1::InstanceEvent::CREATED});
+  const Instance i = Only();
+  EXPECT_GE(i.view_agree, 4u);  // the nearest of points sharing a pixel; the rest hidden
+  EXPECT_EQ(i.view_conflict, 0u);
+  EXPECT_EQ(ViewConflict(i), 0.0f);
+  EXPECT_EQ(ToProto(i, &model_, "m").view_conflict(), 0.0);
+}
+
+TEST_F(ReconcilerViewTest, AnInstanceWhereTheCameraSawThroughItIsNotListed) {
+  const Eigen::Isometry3f pose = At({0, 0, 1});
+  Observe(pose);
+  RenderDepth(pose, 3);  // the wall 3 m away, and no object in front of it
+  std::fill(depth_.pixels.begin(), depth_.pixels.end(), 3000);
+  EXPECT_EQ(Reconcile(pose.translation()), 0);  // never visible: no event
+  EXPECT_TRUE(EventTypes().empty());
+  Instance i = Only();
+  EXPECT_EQ(i.view_agree, 0u);
+  EXPECT_EQ(i.view_conflict, 6u);
+  EXPECT_EQ(ToProto(i, &model_, "m").view_conflict(), 1.0);
+  // Later frames that see it where it is bring it back: the old evidence fades.
+  RenderDepth(pose, 0);
+  int frames = 0;
+  while (ViewConflict(Only()) > 0.15f && frames < 50) {
+    Reconcile(pose.translation());
+    ++frames;
+  }
+  EXPECT_LE(ViewConflict(Only()), 0.15f);
+  EXPECT_GE(frames, 2);
+  EXPECT_EQ(EventTypes(), std::vector<v1::InstanceEvent::Type>{v1::InstanceEvent::CREATED});
+}
+
+TEST_F(ReconcilerViewTest, AnInstanceBehindWhatTheCameraSawIsOccludedNotContradicted) {
+  const Eigen::Isometry3f pose = At({0, 0, 1});
+  Observe(pose);
+  std::fill(depth_.pixels.begin(), depth_.pixels.end(), 500);  // something 0.5 m away
+  EXPECT_EQ(Reconcile(pose.translation()), 1);
+  const Instance i = Only();
+  EXPECT_EQ(i.view_agree + i.view_conflict, 0u);
 }
 
 }  // namespace

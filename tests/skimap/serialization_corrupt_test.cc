@@ -199,20 +199,47 @@ TEST(SerializationCorruptTest, HypothesesAndInstancesWithBadCountsOrIdsAreReject
   PutU32(bad, kFirstRecord + kKeyBytes, 1u << 30);
   EXPECT_EQ(Load<HypothesesVoxel>(bad).code(), absl::StatusCode::kDataLoss);
 
-  // Two instances with ids 1 and 2; each is 96 bytes after the voxel's n.
+  // Two instances with ids 1 and 2; each is 104 bytes after the voxel's n.
   InstancesVoxel two({.id = 1, .object_id = 4});
   two += InstancesVoxel({.id = 2, .object_id = 5});
   SkiMap<InstancesVoxel> inst({.resolution = 0.05});
   inst.IntegrateKey({0, 0, 0}, two);
   const std::string bytes = SerializeMap(inst);
   ASSERT_TRUE(DeserializeMap<InstancesVoxel>(bytes, {}).ok());
-  const size_t n_at = kFirstRecord + kKeyBytes, second_id = n_at + 4 + 96;
+  const size_t n_at = kFirstRecord + kKeyBytes, second_id = n_at + 4 + 104;
   bad = bytes;
   PutU64(bad, second_id, 1);  // ids must be unique
   EXPECT_EQ(Load<InstancesVoxel>(bad).code(), absl::StatusCode::kDataLoss);
   bad = bytes;
   PutU32(bad, n_at, 0xFFFFFFFFu);
   EXPECT_EQ(Load<InstancesVoxel>(bad).code(), absl::StatusCode::kDataLoss);
+  bad = bytes;
+  PutU32(bad, n_at, 2);  // the layout without view counts: the records are 8 bytes too long
+  EXPECT_EQ(Load<InstancesVoxel>(bad).code(), absl::StatusCode::kDataLoss);
+}
+
+// Instances written before the view counts existed (bit 31 of n clear, 96-byte records)
+// still load, with no view evidence.
+TEST(SerializationCorruptTest, InstancesWithoutViewCountsLoad) {
+  Instance a{
+      .id = 1, .object_id = 4, .score = 120, .fit = 0.5f, .view_agree = 7, .view_conflict = 3};
+  SkiMap<InstancesVoxel> inst({.resolution = 0.05});
+  inst.IntegrateKey({0, 0, 0}, InstancesVoxel(a));
+  std::string bytes = SerializeMap(inst);
+  const size_t n_at = kFirstRecord + kKeyBytes, view_at = n_at + 4 + 96;
+  PutU32(bytes, n_at, 1);
+  bytes.erase(view_at, 8);
+  absl::StatusOr<std::unique_ptr<SkiMap<InstancesVoxel>>> old =
+      DeserializeMap<InstancesVoxel>(Reseal(bytes), {});
+  ASSERT_TRUE(old.ok()) << old.status();
+  std::optional<InstancesVoxel> v = (*old)->Find({0, 0, 0});
+  ASSERT_TRUE(v.has_value());
+  ASSERT_EQ(v->items().size(), 1u);
+  Instance expected = a;
+  expected.view_agree = expected.view_conflict = 0;
+  EXPECT_EQ(v->items()[0], expected);
+  EXPECT_EQ(ViewConflict(v->items()[0]), 0.0f);
+  EXPECT_FLOAT_EQ(ViewConflict(a), 0.3f);
 }
 
 }  // namespace
