@@ -147,6 +147,7 @@ absl::StatusOr<std::vector<Texture>> LoadTextures(const std::string& dir, int ma
   if (static_cast<int>(out.size()) >= min_count) return out;
   int k = 2;
   while (k < 4 && static_cast<int>(usable.size()) * k * k < min_count) ++k;
+  // Read again rather than kept: wallpapers are 4096 px square (48 MB each decoded).
   std::vector<Texture> tiles;
   for (const std::string& f : usable) {
     const cv::Mat img = ReadTexturePicture(f);

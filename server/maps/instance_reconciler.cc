@@ -59,81 +59,6 @@ std::vector<LabelMatch> MatchesNear(const LabelsVolume& labels,
   return out;
 }
 
-// How well a posed object agrees with the map's RGB volume: the fraction of its surface
-// points whose voxel in the map is occupied, and the fraction of those whose colour is
-// close (mean absolute difference per channel under kColourTolerance).
-struct SurfaceFit {
-  float observed = 0;
-  float colour = 0;
-};
-constexpr float kColourTolerance = 40;
-
-SurfaceFit FitSurface(const Volume& rgb, const recognition::ObjectShape& shape,
-                      const Eigen::Isometry3f& pose) {
-  SurfaceFit fit;
-  if (shape.surface.empty()) return fit;
-  int observed = 0, agree = 0;
-  for (const recognition::SurfacePoint& s : shape.surface) {
-    const Eigen::Vector3f w = pose * s.p;
-    VoxelKey key;
-    if (!rgb.grid().ToKey(w.x(), w.y(), w.z(), &key)) continue;
-    std::optional<RGBWeightedVoxel> v = rgb.Find(key);
-    if (!v.has_value()) continue;
-    ++observed;
-    const Eigen::Vector3f c(v->Red(), v->Green(), v->Blue());
-    if ((c - s.rgb).cwiseAbs().mean() < kColourTolerance) ++agree;
-  }
-  fit.observed = static_cast<float>(observed) / shape.surface.size();
-  fit.colour = observed > 0 ? static_cast<float>(agree) / observed : 0;
-  return fit;
-}
-
-// The view check: the object's surface points at `pose`, projected into the frame. The
-// trained surface is voxels (1 cm), so a point may lie up to kViewSlack off the true
-// surface, sideways too: each point looks at 3 x 3 pixels spanning kViewSlack around its
-// own. It agrees when one of them measured within kViewTolerance of its depth; it
-// conflicts (the camera saw through it) when at least 5 of them measured and all lie more
-// than kViewTolerance behind it; otherwise (occluded, unmeasured, at a silhouette) it
-// counts for neither.
-constexpr float kViewTolerance = 0.015f;  // metres
-constexpr float kViewSlack = 0.01f;       // metres
-
-void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& pose,
-               const ViewFrame& view, uint32_t* agree, uint32_t* conflict) {
-  const perception::PinholeCamera& cam = view.camera;
-  const perception::DepthImage& depth = *view.depth;
-  const Eigen::Isometry3f to_camera = view.camera_from_world * pose;
-  for (const recognition::SurfacePoint& s : shape.surface) {
-    const Eigen::Vector3f p = to_camera * s.p;
-    if (!(p.z() > 0)) continue;
-    const long u = std::lround(cam.fx * p.x() / p.z() + cam.cx);
-    const long v = std::lround(cam.fy * p.y() / p.z() + cam.cy);
-    const long r = std::max(1L, std::lround(cam.fx * kViewSlack / p.z()));
-    int measured = 0, behind = 0;
-    bool agrees = false;
-    for (long dv = -r; dv <= r; dv += r) {
-      for (long du = -r; du <= r; du += r) {
-        const long x = u + du, y = v + dv;
-        if (x < 0 || y < 0 || x >= depth.width || y >= depth.height) continue;
-        const uint16_t raw = depth.pixels[static_cast<size_t>(y) * depth.width + x];
-        if (raw == 0) continue;
-        ++measured;
-        const float z = static_cast<float>(raw * view.depth_scale);
-        agrees |= std::abs(p.z() - z) <= kViewTolerance;
-        behind += z > p.z() + kViewTolerance;
-      }
-    }
-    if (agrees) {
-      ++*agree;
-    } else if (measured >= 5 && behind == measured) {
-      ++*conflict;
-    }
-  }
-}
-
-// The view conflict as the API gives it: rounded to 0.01 (events follow its changes).
-double RoundedConflict(const Instance& i) { return std::round(ViewConflict(i) * 100) / 100; }
-
 // The pose of an instance as a transform (world <- model).
 Eigen::Isometry3f PoseOf(const Instance& i) {
   Eigen::Isometry3f pose = Eigen::Isometry3f::Identity();
@@ -141,24 +66,6 @@ Eigen::Isometry3f PoseOf(const Instance& i) {
       Eigen::Quaternionf(i.q[0], i.q[1], i.q[2], i.q[3]).normalized().toRotationMatrix();
   pose.translation() = Eigen::Vector3f(i.t[0], i.t[1], i.t[2]);
   return pose;
-}
-
-// True if object `a` at `pose_a` and object `b` at `pose_b` would occupy the same space:
-// more than a fifth of a's surface points lie inside b's bounding box (shrunk by 5 mm).
-bool Overlap(const recognition::ObjectShape& a, const Eigen::Isometry3f& pose_a,
-             const recognition::ObjectShape& b, const Eigen::Isometry3f& pose_b) {
-  if (a.surface.empty() ||
-      ((pose_a * a.centre) - (pose_b * b.centre)).norm() > a.radius + b.radius) {
-    return false;
-  }
-  const Eigen::Isometry3f into_b = pose_b.inverse() * pose_a;
-  const Eigen::Vector3f half = (b.half_extent.array() - 0.005f).max(0.0f).matrix();
-  size_t inside = 0;
-  for (const recognition::SurfacePoint& s : a.surface) {
-    const Eigen::Vector3f p = into_b * s.p - b.centre;
-    inside += (p.cwiseAbs().array() <= half.array()).all();
-  }
-  return inside * 5 > a.surface.size();
 }
 
 struct Existing {
@@ -316,10 +223,7 @@ class Reconciler {
     *estimates = std::move(kept);
   }
 
-  bool Visible(const Instance& i) const {
-    return i.id != 0 && i.score >= params_.min_instance_score &&
-           i.fit >= params_.min_instance_fit && ViewConflict(i) <= params_.max_view_conflict;
-  }
+  bool Visible(const Instance& i) const { return i.id != 0 && params_.visible(i); }
 
   void Update(Instance& inst, const InstanceEstimate& e, uint32_t obj_id) {
     const Instance before = inst;
@@ -508,7 +412,7 @@ v1::Instance ToProto(const Instance& i, const recognition::RecognitionModel* mod
   out.mutable_spread()->set_translation_m(i.spread_t);
   out.mutable_spread()->set_rotation_deg(i.spread_r * 180 / M_PI);
   out.set_fit(i.fit);
-  out.set_view_conflict(RoundedConflict(i));
+  out.set_view_conflict(ViewConflict(i));
   return out;
 }
 

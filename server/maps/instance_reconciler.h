@@ -17,7 +17,7 @@
 //      older, which keeps its id. This includes an instance beyond the region that an
 //      updated one moved next to.
 //
-// Events are about visible instances (score >= min_instance_score): an instance becoming
+// Events are about visible instances (ReconcileParams.visible): an instance becoming
 // visible is CREATED, one falling below or going is REMOVED, a visible one that changed in
 // any way (pose, score, support, sightings) is UPDATED: replaying the events gives exactly
 // the listed instances.
@@ -29,22 +29,13 @@
 #include <cstdint>
 #include <string>
 
-#include "perception/image_codec.h"
 #include "perception/recognition/pose_voting.h"
 #include "perception/recognition/recognition_model.h"
-#include "perception/rgbd_frame.h"
+#include "server/maps/instance_checks.h"
 #include "server/maps/map_state.h"
+#include "server/maps/recognition_config.h"
 
 namespace skimap::server {
-
-// A recognised frame's depth, to check instances against what the camera saw (the view
-// conflict, skimap/hypotheses_voxel.h Instance::view_conflict).
-struct ViewFrame {
-  const perception::DepthImage* depth = nullptr;  // not owned; REQUIRES non-null
-  double depth_scale = 0;                         // metres per depth unit
-  perception::PinholeCamera camera;
-  Eigen::Isometry3f camera_from_world = Eigen::Isometry3f::Identity();
-};
 
 struct ReconcileRequest {
   int object_index = 0;             // in the recognition model
@@ -57,9 +48,7 @@ struct ReconcileRequest {
 
 struct ReconcileParams {
   std::string map_id;
-  double min_instance_score = 8;
-  double min_instance_fit = 0.20;
-  double max_view_conflict = 0.15;
+  InstanceVisibility visible;
   float inlier_distance = 0.02f;
 };
 

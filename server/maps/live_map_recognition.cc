@@ -210,11 +210,7 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
       state_.dirty_hypotheses.insert(ChunkOf(key));
       objects.insert(v.object_index);
     }
-    const ReconcileParams params{
-        .map_id = id_,
-        .min_instance_score = options_.config.recognition.min_instance_score,
-        .min_instance_fit = options_.config.recognition.min_instance_fit,
-        .max_view_conflict = options_.config.recognition.max_view_conflict};
+    const ReconcileParams params{.map_id = id_, .visible = options_.config.recognition.visible};
     const ViewFrame view{.depth = &job.frame->depth,
                          .depth_scale = job.frame->depth_scale,
                          .camera = job.frame->camera,
@@ -293,10 +289,7 @@ void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
     r.hi = r.hi.cwiseMax(t0).cwiseMax(t1);
   }
   hypothesis_moves_.clear();
-  const ReconcileParams params{.map_id = id_,
-                               .min_instance_score = options_.config.recognition.min_instance_score,
-                               .min_instance_fit = options_.config.recognition.min_instance_fit,
-                               .max_view_conflict = options_.config.recognition.max_view_conflict};
+  const ReconcileParams params{.map_id = id_, .visible = options_.config.recognition.visible};
   // Twice: the second pass sees every object's instances in their new places (one object's
   // instance can rule out another's where they would overlap).
   for (int pass = 0; pass < 2; ++pass) {

@@ -103,7 +103,7 @@ absl::StatusOr<v1::ListInstancesResponse> MapService::ListInstances(
     }
   }
   const size_t limit = request.page_size() == 0 ? kDefaultPageSize : request.page_size();
-  const double min_score = std::max(request.min_score(), m.config().recognition.min_instance_score);
+  const InstanceVisibility& visible = m.config().recognition.visible;
   const std::vector<int32_t> objects(request.obj_ids().begin(), request.obj_ids().end());
   v1::ListInstancesResponse response;
   std::vector<Instance> found;
@@ -111,9 +111,7 @@ absl::StatusOr<v1::ListInstancesResponse> MapService::ListInstances(
     response.set_event_sequence(s.recognition.log.last_sequence());
     s.instances.ForEach([&](const VoxelKey&, const InstancesVoxel& voxel) {
       for (const Instance& i : voxel.items()) {
-        if (i.id <= after || i.score < min_score ||
-            i.fit < m.config().recognition.min_instance_fit ||
-            ViewConflict(i) > m.config().recognition.max_view_conflict || !(*in_region)(i)) {
+        if (i.id <= after || i.score < request.min_score() || !visible(i) || !(*in_region)(i)) {
           continue;
         }
         if (!objects.empty() && std::find(objects.begin(), objects.end(),
@@ -163,9 +161,7 @@ absl::StatusOr<v1::Instance> MapService::GetInstance(const v1::GetInstanceReques
     }
     return std::nullopt;
   });
-  if (!found.has_value() || found->score < m.config().recognition.min_instance_score ||
-      found->fit < m.config().recognition.min_instance_fit ||
-      ViewConflict(*found) > m.config().recognition.max_view_conflict) {
+  if (!found.has_value() || !m.config().recognition.visible(*found)) {
     return absl::NotFoundError(absl::StrCat("instance ", id, " not found in ", MapName(m.id())));
   }
   return ToProto(*found, m.recognition_model(), m.id());

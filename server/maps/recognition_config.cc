@@ -59,19 +59,19 @@ absl::StatusOr<RecognitionConfig> ResolveRecognitionOptions(const v1::Recognitio
     if (!(o.min_instance_score() >= 0) || !std::isfinite(o.min_instance_score())) {
       return Bad("min_instance_score", "must be finite and >= 0");
     }
-    c.min_instance_score = o.min_instance_score();
+    c.visible.min_score = o.min_instance_score();
   }
   if (o.has_min_instance_fit()) {
     if (!(o.min_instance_fit() >= 0 && o.min_instance_fit() <= 1)) {
       return Bad("min_instance_fit", "must be in [0, 1]");
     }
-    c.min_instance_fit = o.min_instance_fit();
+    c.visible.min_fit = o.min_instance_fit();
   }
   if (o.has_max_view_conflict()) {
     if (!(o.max_view_conflict() >= 0 && o.max_view_conflict() <= 1)) {
       return Bad("max_view_conflict", "must be in [0, 1]");
     }
-    c.max_view_conflict = o.max_view_conflict();
+    c.visible.max_view_conflict = o.max_view_conflict();
   }
   switch (o.policy()) {
     case v1::RecognitionOptions::POLICY_UNSPECIFIED:
@@ -99,9 +99,9 @@ v1::RecognitionOptions ToProto(const RecognitionConfig& c) {
   o.set_hough_bin(c.hough_bin);
   o.set_policy(c.every_frame ? v1::RecognitionOptions::EVERY_FRAME
                              : v1::RecognitionOptions::NEWEST);
-  o.set_min_instance_score(c.min_instance_score);
-  o.set_min_instance_fit(c.min_instance_fit);
-  o.set_max_view_conflict(c.max_view_conflict);
+  o.set_min_instance_score(c.visible.min_score);
+  o.set_min_instance_fit(c.visible.min_fit);
+  o.set_max_view_conflict(c.visible.max_view_conflict);
   return o;
 }
 

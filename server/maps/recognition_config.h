@@ -8,9 +8,22 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "skimap/hypotheses_voxel.h"
 #include "skimap/v1/instances.pb.h"
 
 namespace skimap::server {
+
+// When an instance is visible: listed, reported by events, found by GetInstance
+// (docs/recognition.md, "Global instances").
+struct InstanceVisibility {
+  double min_score = 60;
+  double min_fit = 0.20;
+  double max_view_conflict = 0.15;
+  bool operator()(const Instance& i) const {
+    return i.score >= min_score && i.fit >= min_fit && ViewConflict(i) <= max_view_conflict;
+  }
+  friend bool operator==(const InstanceVisibility&, const InstanceVisibility&) = default;
+};
 
 struct RecognitionConfig {
   bool enabled = false;
@@ -20,10 +33,8 @@ struct RecognitionConfig {
   double sphere_radius = 0.6;
   int triples = 2000;
   double hough_bin = 0.02;
-  bool every_frame = false;  // policy EVERY_FRAME (else NEWEST)
-  double min_instance_score = 60;
-  double min_instance_fit = 0.20;
-  double max_view_conflict = 0.15;
+  bool every_frame = false;    // policy EVERY_FRAME (else NEWEST)
+  InstanceVisibility visible;  // min_instance_score, min_instance_fit, max_view_conflict
   friend bool operator==(const RecognitionConfig&, const RecognitionConfig&) = default;
 };
 

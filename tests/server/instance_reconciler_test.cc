@@ -90,7 +90,7 @@ class ReconcilerTest : public ::testing::Test {
 
   int Reconcile(const recognition::Sphere& region) {
     return ReconcileInstances(
-        model_, {.map_id = "m", .min_instance_score = 8, .min_instance_fit = 0},
+        model_, {.map_id = "m", .visible = {.min_score = 8, .min_fit = 0}},
         {.object_index = 0, .region = region, .frame = 5, .frame_supports = true}, &state_);
   }
 
@@ -209,8 +209,7 @@ class ReconcilerViewTest : public ::testing::Test {
   // What a recognised frame does: reconcile the object, checking the instances it updates
   // against the frame's depth. The events.
   int Reconcile(const Eigen::Vector3f& centre) {
-    return ReconcileInstances(model_,
-                              {.map_id = "m", .min_instance_score = 8, .min_instance_fit = 0},
+    return ReconcileInstances(model_, {.map_id = "m", .visible = {.min_score = 8, .min_fit = 0}},
                               {.object_index = 0,
                                .region = {.centre = centre, .radius = 0.5f},
                                .frame = 5,
