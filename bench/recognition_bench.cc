@@ -11,6 +11,16 @@
 // cached in --db. Frames are sent as the dataset stores them (16-bit PNG depth, PNG or
 // JPEG colour: client/dataset_frames.h), 8 in flight, policy EVERY_FRAME (every frame is
 // recognised; its ack waits for it), so frames/s is the whole pipeline's.
+//
+// Mapping throughput (--mapping_only): the scene is streamed with recognition off and with
+// policy NEWEST, alternately, --repeats times; each figure is the median. A third run,
+// recognition off beside a busy loop at idle priority (SCHED_IDLE: it only gets a core
+// the pipeline leaves), is the control: what any other work on this machine's other core
+// costs mapping, whatever its priority.
+#include <sched.h>
+
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -18,6 +28,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/flags/flag.h"
@@ -44,6 +55,7 @@ ABSL_FLAG(int, max_features, 1000, "features per image of the object database");
 ABSL_FLAG(bool, mapping_only, true,
           "also stream each scene with recognition off, and with policy NEWEST (mapping "
           "throughput with recognition on)");
+ABSL_FLAG(int, repeats, 3, "mapping throughput: off / NEWEST / control runs per scene (median)");
 ABSL_FLAG(double, sphere_distance, 0, "active sphere distance (0 = scene rule)");
 ABSL_FLAG(double, sphere_radius, 0.6, "active sphere radius");
 ABSL_FLAG(double, min_fit, -1, "the map's min_instance_fit (-1: the server's default)");
@@ -94,6 +106,33 @@ struct Run {
 };
 
 enum class Mode { kOff, kNewest, kEveryFrame };
+
+// A thread spinning at idle priority for its lifetime (the control run's other work).
+class IdleSpinner {
+ public:
+  IdleSpinner()
+      : thread_([this] {
+          sched_param p{};
+          if (sched_setscheduler(0, SCHED_IDLE, &p) != 0) Die("sched_setscheduler(SCHED_IDLE)");
+          volatile uint64_t x = 0;
+          while (!stop_.load(std::memory_order_relaxed)) x = x + 1;
+        }) {}
+  ~IdleSpinner() {
+    stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty()      ? 0
+         : v.size() % 2 ? v[v.size() / 2]
+                        : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
+}
 
 Run Stream(std::shared_ptr<const objects::ObjectDatabase> db,
            const std::vector<dataset::Frame>& frames, Mode mode) {
@@ -249,8 +288,12 @@ int main(int argc, char** argv) {
   std::printf(
       "| scene | frames | GT | instances | TP | precision | recall | whole pipeline frames/s "
       "(EVERY_FRAME) | mapping frames/s, recognition off | mapping frames/s, recognition on "
-      "(NEWEST) | on / off | frames recognised (NEWEST) |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "(NEWEST) | on / off | frames recognised (NEWEST) | control: off beside an idle-priority "
+      "spinner, / off |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  double off_total = 0, on_total = 0, control_total = 0, whole_seconds = 0;
+  int whole_frames = 0;
+  int mapped_frames = 0;
   Score total;
   std::map<int, std::pair<int, int>> per_object;
   for (const std::string& dir : ds->scenes["test"]) {
@@ -272,27 +315,45 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "scene %s: %zu frames\n", name.c_str(), frames.size());
     const Run rec = Stream(db, frames, Mode::kEveryFrame);
-    Run map, newest;
+    std::vector<double> off_s, on_s, control_s, recognised;
     if (absl::GetFlag(FLAGS_mapping_only)) {
-      map = Stream(db, frames, Mode::kOff);
-      newest = Stream(db, frames, Mode::kNewest);
+      for (int r = 0; r < std::max(1, absl::GetFlag(FLAGS_repeats)); ++r) {
+        off_s.push_back(Stream(db, frames, Mode::kOff).seconds);
+        const Run newest = Stream(db, frames, Mode::kNewest);
+        on_s.push_back(newest.seconds);
+        recognised.push_back(static_cast<double>(newest.stats.recognized_frames()));
+        IdleSpinner spinner;
+        control_s.push_back(Stream(db, frames, Mode::kOff).seconds);
+      }
+      off_total += Median(off_s);
+      on_total += Median(on_s);
+      control_total += Median(control_s);
+      mapped_frames += static_cast<int>(frames.size());
     }
+    whole_seconds += rec.seconds;
+    whole_frames += rec.frames;
     const Score s = Evaluate(truth, rec.instances, &per_object);
     total.gt += s.gt;
     total.found += s.found;
     total.tp += s.tp;
-    const double off_fps = map.seconds > 0 ? map.frames / map.seconds : 0;
-    const double on_fps = newest.seconds > 0 ? newest.frames / newest.seconds : 0;
-    std::printf("| %s | %d | %d | %d | %d | %.2f | %.2f | %.1f | %.1f | %.1f | %.2f | %llu |\n",
-                name.c_str(), rec.frames, s.gt, s.found, s.tp, s.found ? double(s.tp) / s.found : 0,
-                s.gt ? double(s.tp) / s.gt : 0, rec.frames / rec.seconds, off_fps, on_fps,
-                off_fps > 0 ? on_fps / off_fps : 0,
-                static_cast<unsigned long long>(newest.stats.recognized_frames()));
+    const double off_fps = off_s.empty() ? 0 : frames.size() / Median(off_s);
+    const double on_fps = on_s.empty() ? 0 : frames.size() / Median(on_s);
+    const double control_fps = control_s.empty() ? 0 : frames.size() / Median(control_s);
+    std::printf(
+        "| %s | %d | %d | %d | %d | %.2f | %.2f | %.1f | %.1f | %.1f | %.2f | %.0f | %.2f |\n",
+        name.c_str(), rec.frames, s.gt, s.found, s.tp, s.found ? double(s.tp) / s.found : 0,
+        s.gt ? double(s.tp) / s.gt : 0, rec.frames / rec.seconds, off_fps, on_fps,
+        off_fps > 0 ? on_fps / off_fps : 0, Median(recognised),
+        off_fps > 0 ? control_fps / off_fps : 0);
     std::fflush(stdout);
   }
-  std::printf("| all | | %d | %d | %d | %.3f | %.3f | | | | | |\n\n", total.gt, total.found,
-              total.tp, total.found ? double(total.tp) / total.found : 0,
-              total.gt ? double(total.tp) / total.gt : 0);
+  auto fps = [&](double seconds) { return seconds > 0 ? mapped_frames / seconds : 0; };
+  std::printf("| all | | %d | %d | %d | %.3f | %.3f | %.1f | %.1f | %.1f | %.2f | | %.2f |\n\n",
+              total.gt, total.found, total.tp, total.found ? double(total.tp) / total.found : 0,
+              total.gt ? double(total.tp) / total.gt : 0,
+              whole_seconds > 0 ? whole_frames / whole_seconds : 0, fps(off_total), fps(on_total),
+              on_total > 0 ? off_total / on_total : 0,
+              control_total > 0 ? off_total / control_total : 0);
   std::printf("| obj_id | recall |\n|---|---|\n");
   for (const auto& [id, r] : per_object) std::printf("| %d | %d/%d |\n", id, r.first, r.second);
   return 0;
