@@ -13,7 +13,8 @@
 // recognised; its ack waits for it), so frames/s is the whole pipeline's.
 //
 // Mapping throughput (--mapping_only): the scene is streamed with recognition off and with
-// policy NEWEST, alternately, --repeats times; each figure is the median. A third run,
+// policy NEWEST, alternately, --repeats times; each figure is the median. Every run must
+// build the same RGB volume (its voxel count is checked). A third run,
 // recognition off beside a busy loop at idle priority (SCHED_IDLE: it only gets a core
 // the pipeline leaves), is the control: what any other work on this machine's other core
 // costs mapping, whatever its priority.
@@ -25,6 +26,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <filesystem>
+#include <initializer_list>
 #include <map>
 #include <mutex>
 #include <string>
@@ -35,6 +37,7 @@
 #include "absl/flags/parse.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "bench/samples.h"
 #include "client/dataset_frames.h"
 #include "dataset/reader.h"
 #include "perception/objects/database_io.h"
@@ -66,7 +69,6 @@ namespace skimap::bench {
 namespace {
 
 namespace v1 = skimap::v1;
-using Clock = std::chrono::steady_clock;
 
 [[noreturn]] void Die(const std::string& what) {
   std::fprintf(stderr, "recognition_bench: %s\n", what.c_str());
@@ -126,13 +128,6 @@ class IdleSpinner {
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty()      ? 0
-         : v.size() % 2 ? v[v.size() / 2]
-                        : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
-}
 
 Run Stream(std::shared_ptr<const objects::ObjectDatabase> db,
            const std::vector<dataset::Frame>& frames, Mode mode) {
@@ -315,19 +310,30 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "scene %s: %zu frames\n", name.c_str(), frames.size());
     const Run rec = Stream(db, frames, Mode::kEveryFrame);
-    std::vector<double> off_s, on_s, control_s, recognised;
+    Samples off, on, control, recognised;  // milliseconds; frames recognised under NEWEST
     if (absl::GetFlag(FLAGS_mapping_only)) {
       for (int r = 0; r < std::max(1, absl::GetFlag(FLAGS_repeats)); ++r) {
-        off_s.push_back(Stream(db, frames, Mode::kOff).seconds);
+        const Run mapping = Stream(db, frames, Mode::kOff);
         const Run newest = Stream(db, frames, Mode::kNewest);
-        on_s.push_back(newest.seconds);
-        recognised.push_back(static_cast<double>(newest.stats.recognized_frames()));
-        IdleSpinner spinner;
-        control_s.push_back(Stream(db, frames, Mode::kOff).seconds);
+        Run beside;
+        {
+          IdleSpinner spinner;
+          beside = Stream(db, frames, Mode::kOff);
+        }
+        for (const Run* run : std::initializer_list<const Run*>{&newest, &beside, &rec}) {
+          if (run->stats.voxels() != mapping.stats.voxels()) {
+            Die(absl::StrCat("scene ", name, ": the runs built different maps (",
+                             mapping.stats.voxels(), " and ", run->stats.voxels(), " voxels)"));
+          }
+        }
+        off.Add(mapping.seconds * 1000);
+        on.Add(newest.seconds * 1000);
+        control.Add(beside.seconds * 1000);
+        recognised.Add(static_cast<double>(newest.stats.recognized_frames()));
       }
-      off_total += Median(off_s);
-      on_total += Median(on_s);
-      control_total += Median(control_s);
+      off_total += off.Median() / 1000;
+      on_total += on.Median() / 1000;
+      control_total += control.Median() / 1000;
       mapped_frames += static_cast<int>(frames.size());
     }
     whole_seconds += rec.seconds;
@@ -336,22 +342,21 @@ int main(int argc, char** argv) {
     total.gt += s.gt;
     total.found += s.found;
     total.tp += s.tp;
-    const double off_fps = off_s.empty() ? 0 : frames.size() / Median(off_s);
-    const double on_fps = on_s.empty() ? 0 : frames.size() / Median(on_s);
-    const double control_fps = control_s.empty() ? 0 : frames.size() / Median(control_s);
+    auto fps = [&](Samples& ms) { return ms.ms.empty() ? 0 : frames.size() * 1000 / ms.Median(); };
+    const double off_fps = fps(off), on_fps = fps(on), control_fps = fps(control);
     std::printf(
         "| %s | %d | %d | %d | %d | %.2f | %.2f | %.1f | %.1f | %.1f | %.2f | %.0f | %.2f |\n",
         name.c_str(), rec.frames, s.gt, s.found, s.tp, s.found ? double(s.tp) / s.found : 0,
         s.gt ? double(s.tp) / s.gt : 0, rec.frames / rec.seconds, off_fps, on_fps,
-        off_fps > 0 ? on_fps / off_fps : 0, Median(recognised),
+        off_fps > 0 ? on_fps / off_fps : 0, recognised.Median(),
         off_fps > 0 ? control_fps / off_fps : 0);
     std::fflush(stdout);
   }
-  auto fps = [&](double seconds) { return seconds > 0 ? mapped_frames / seconds : 0; };
+  auto rate = [&](double seconds) { return seconds > 0 ? mapped_frames / seconds : 0; };
   std::printf("| all | | %d | %d | %d | %.3f | %.3f | %.1f | %.1f | %.1f | %.2f | | %.2f |\n\n",
               total.gt, total.found, total.tp, total.found ? double(total.tp) / total.found : 0,
               total.gt ? double(total.tp) / total.gt : 0,
-              whole_seconds > 0 ? whole_frames / whole_seconds : 0, fps(off_total), fps(on_total),
+              whole_seconds > 0 ? whole_frames / whole_seconds : 0, rate(off_total), rate(on_total),
               on_total > 0 ? off_total / on_total : 0,
               control_total > 0 ? off_total / control_total : 0);
   std::printf("| obj_id | recall |\n|---|---|\n");

@@ -10,6 +10,7 @@ namespace {
 constexpr float kColourTolerance = 40;    // mean absolute difference per channel
 constexpr float kViewTolerance = 0.015f;  // metres
 constexpr float kViewSlack = 0.01f;       // metres
+constexpr double kNearestView = 0.01;     // metres: bounds the projection (pixels fit a long)
 
 }  // namespace
 
@@ -38,9 +39,10 @@ void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& p
   const perception::PinholeCamera& cam = view.camera;
   const perception::DepthImage& depth = *view.depth;
   const Eigen::Isometry3f to_camera = view.camera_from_world * pose;
+  const float nearest = static_cast<float>(std::max(view.min_depth, kNearestView));
   for (const recognition::SurfacePoint& s : shape.surface) {
     const Eigen::Vector3f p = to_camera * s.p;
-    if (!(p.z() > 0)) continue;
+    if (!(p.z() >= nearest)) continue;
     const long u = std::lround(cam.fx * p.x() / p.z() + cam.cx);
     const long v = std::lround(cam.fy * p.y() / p.z() + cam.cy);
     const long r = std::max(1L, std::lround(cam.fx * kViewSlack / p.z()));

@@ -32,6 +32,7 @@ struct ViewFrame {
   double depth_scale = 0;                         // metres per depth unit
   perception::PinholeCamera camera;               // REQUIRES: depth is its size
   Eigen::Isometry3f camera_from_world = Eigen::Isometry3f::Identity();
+  double min_depth = 0.1;  // metres: the sensor's range starts here (the map's min_depth)
 };
 
 // The view check: the object's surface points at `pose`, projected into the frame. The
@@ -39,8 +40,8 @@ struct ViewFrame {
 // sideways too: each point looks at 3 x 3 pixels spanning 1 cm around its own. It agrees
 // when one of them measured within 15 mm of its depth; it conflicts (the camera saw
 // through it) when at least 5 of them measured and all lie more than 15 mm behind it;
-// otherwise (occluded, unmeasured, at a silhouette) it counts for neither. Adds to
-// *agree and *conflict.
+// otherwise (occluded, unmeasured, at a silhouette, or nearer than the sensor's range,
+// never nearer than 1 cm) it counts for neither. Adds to *agree and *conflict.
 void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& pose,
                const ViewFrame& view, uint32_t* agree, uint32_t* conflict);
 

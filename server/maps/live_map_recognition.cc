@@ -214,7 +214,8 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
     const ViewFrame view{.depth = &job.frame->depth,
                          .depth_scale = job.frame->depth_scale,
                          .camera = job.frame->camera,
-                         .camera_from_world = Isometry(pose).inverse().cast<float>()};
+                         .camera_from_world = Isometry(pose).inverse().cast<float>(),
+                         .min_depth = options_.config.integration.min_depth};
     for (int o : objects) {
       events += ReconcileInstances(*model_, params,
                                    {.object_index = o,

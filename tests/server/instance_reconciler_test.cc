@@ -279,5 +279,22 @@ TEST_F(ReconcilerViewTest, AnInstanceBehindWhatTheCameraSawIsOccludedNotContradi
   EXPECT_EQ(i.view_agree + i.view_conflict, 0u);
 }
 
+// Points nearer than the sensor's range say nothing (it cannot have measured there), and
+// points at the camera's centre do not overflow the projection (UBSan runs this).
+TEST_F(ReconcilerViewTest, PointsNearerThanTheSensorsRangeCountForNeither) {
+  std::fill(depth_.pixels.begin(), depth_.pixels.end(), 500);  // a wall 0.5 m away
+  view_.min_depth = 0.1;
+  for (const float z : {1e-20f, 1e-6f, 0.05f}) {
+    uint32_t agree = 0, conflict = 0;
+    CountView(model_.object(0), At({0, 0, z}), view_, &agree, &conflict);
+    EXPECT_EQ(agree + conflict, 0u) << z;
+  }
+  // Within the range the same wall contradicts the object (the check is live).
+  uint32_t agree = 0, conflict = 0;
+  CountView(model_.object(0), At({0, 0, 0.2f}), view_, &agree, &conflict);
+  EXPECT_EQ(agree, 0u);
+  EXPECT_EQ(conflict, 6u);
+}
+
 }  // namespace
 }  // namespace skimap::server
