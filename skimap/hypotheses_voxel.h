@@ -42,9 +42,9 @@ struct Instance {
   float spread_t = 0;  // RMS distance of the supporting hypotheses to t, metres
   float spread_r = 0;  // RMS angle of their rotations to q, radians
   float fit = 0;       // agreement with the map's surface and colour, 0..1
-  // View consistency, summed over the recognised frames that saw the instance: its surface
-  // points that agreed with the frame's depth, and those in front of it (space the camera
-  // saw through).
+  // View consistency at the pose, over the map's keyframes when the instance was last
+  // updated (server/maps/view_keyframes.h): its surface points that agreed with a frame's
+  // depth, and those in front of it (space the camera saw through).
   uint32_t view_agree = 0, view_conflict = 0;
   friend bool operator==(const Instance&, const Instance&) = default;
 };

@@ -40,6 +40,22 @@ void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& p
   const perception::DepthImage& depth = *view.depth;
   const Eigen::Isometry3f to_camera = view.camera_from_world * pose;
   const float nearest = static_cast<float>(std::max(view.min_depth, kNearestView));
+  // A bounding sphere wholly behind the sensor's range or beside the image: nothing to count
+  // (most of a map's keyframes do not look at a given instance).
+  const Eigen::Vector3f c = to_camera * shape.centre;
+  const float reach = shape.radius + kViewSlack;
+  if (c.z() + reach < nearest) return;
+  if (c.z() - reach > nearest) {
+    const float near_z = c.z() - reach;
+    const float u = static_cast<float>(cam.fx) * c.x() / c.z() + static_cast<float>(cam.cx);
+    const float v = static_cast<float>(cam.fy) * c.y() / c.z() + static_cast<float>(cam.cy);
+    // |u(c + d) - u(c)| <= fx |d| (1 + |x / z|) / (z - |d|) for |d| <= reach.
+    const float ru =
+        static_cast<float>(cam.fx) * reach * (1 + std::abs(c.x() / c.z())) / near_z + 1;
+    const float rv =
+        static_cast<float>(cam.fy) * reach * (1 + std::abs(c.y() / c.z())) / near_z + 1;
+    if (u + ru < 0 || v + rv < 0 || u - ru > depth.width || v - rv > depth.height) return;
+  }
   for (const recognition::SurfacePoint& s : shape.surface) {
     const Eigen::Vector3f p = to_camera * s.p;
     if (!(p.z() >= nearest)) continue;

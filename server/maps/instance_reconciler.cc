@@ -236,14 +236,13 @@ class Reconciler {
     inst.spread_t = e.spread_t;
     inst.spread_r = e.spread_r;
     inst.fit = e.fit;
-    if (request_.view != nullptr) {
-      // The evidence of earlier frames fades (by an eighth per frame, rounded up): it was
-      // counted at earlier estimates of the pose, and an instance whose pose became right
-      // recovers.
-      inst.view_agree -= (inst.view_agree + 7) / 8;
-      inst.view_conflict -= (inst.view_conflict + 7) / 8;
-      CountView(model_.object(request_.object_index), PoseOf(inst), *request_.view,
-                &inst.view_agree, &inst.view_conflict);
+    if (!request_.views.empty()) {
+      inst.view_agree = 0;
+      inst.view_conflict = 0;
+      for (const ViewFrame& view : request_.views) {
+        CountView(model_.object(request_.object_index), PoseOf(inst), view, &inst.view_agree,
+                  &inst.view_conflict);
+      }
     }
     if (request_.frame_supports && e.last_frame == request_.frame) {
       inst.last_frame = request_.frame;
@@ -315,9 +314,6 @@ class Reconciler {
           older.first_frame = before.first_frame;
           older.first_time_us = before.first_time_us;
         }
-        // Both saw the same object: their view evidence adds up.
-        older.view_agree = before.view_agree + younger.view_agree;
-        older.view_conflict = before.view_conflict + younger.view_conflict;
         if (!(older == before)) {
           Put(older);
           Transition(before, older);

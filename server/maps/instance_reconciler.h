@@ -27,6 +27,7 @@
 #define SERVER_MAPS_INSTANCE_RECONCILER_H_
 
 #include <cstdint>
+#include <span>
 #include <string>
 
 #include "perception/recognition/pose_voting.h"
@@ -38,12 +39,14 @@
 namespace skimap::server {
 
 struct ReconcileRequest {
-  int object_index = 0;             // in the recognition model
-  recognition::Sphere region;       // world
-  uint64_t frame = 0;               // the frame that caused it (events, sightings)
-  int64_t frame_time_us = 0;        // its timestamp
-  bool frame_supports = false;      // the frame added hypotheses of this object (sightings)
-  const ViewFrame* view = nullptr;  // the frame's depth, if any: instances it updates count it
+  int object_index = 0;         // in the recognition model
+  recognition::Sphere region;   // world
+  uint64_t frame = 0;           // the frame that caused it (events, sightings)
+  int64_t frame_time_us = 0;    // its timestamp
+  bool frame_supports = false;  // the frame added hypotheses of this object (sightings)
+  // The map's keyframes (view_keyframes.h): each instance updated here has its view counts
+  // recounted over all of them at its new pose; none: the counts stay as they were.
+  std::span<const ViewFrame> views;
 };
 
 struct ReconcileParams {

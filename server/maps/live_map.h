@@ -54,6 +54,7 @@
 #include "server/maps/map_config.h"
 #include "server/maps/map_state.h"
 #include "server/maps/recognition_queue.h"
+#include "server/maps/view_keyframes.h"
 #include "server/metrics/metrics.h"
 #include "server/work_queue.h"
 #include "skimap/mutex.h"
@@ -327,13 +328,15 @@ class LiveMap {
   std::atomic<int> snapshot_holds_{0};
 
   // Recognition: the model (null without), why it does not run, the worker's observer
-  // (UpdatePoses re-observes moved frames), label moves staged by UpdatePoses.
+  // (UpdatePoses re-observes moved frames), label moves staged by UpdatePoses, the
+  // keyframes instances are checked against.
   std::shared_ptr<const recognition::RecognitionModel> model_;
   absl::Status recognition_status_;
   std::unique_ptr<recognition::LabelObserver> worker_observer_;
   std::unique_ptr<recognition::LabelObserver> thread_observer_;  // observing thread only
   VoxelBatch<MultiLabelVoxel> labels_add_, labels_remove_;       // worker only
   std::map<uint64_t, Eigen::Isometry3d> hypothesis_moves_;       // worker only: frame -> delta
+  std::unique_ptr<ViewKeyframes> view_keyframes_;                // worker only
   std::atomic<uint64_t> recognized_frames_{0};
   std::atomic<uint64_t> recognition_changes_{0};  // applied since the last capture
   std::mutex watchers_mu_;

@@ -66,6 +66,8 @@ void LiveMap::StartRecognition() {
   }
   model_ = std::make_shared<const recognition::RecognitionModel>(*std::move(model));
   worker_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
+  view_keyframes_ = std::make_unique<ViewKeyframes>(
+      ViewKeyframes::Options{.min_depth = options_.config.integration.min_depth});
   thread_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
   recognition_ = std::make_unique<RecognitionQueue>(
       RecognitionQueue::Options{.every_frame = rc.every_frame,
@@ -176,6 +178,9 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
                                       const recognition::Sphere& sphere,
                                       const std::vector<Voted>& voted) {
   if (!Refused().ok()) return;
+  // Before the lock: a new vantage point's depth is copied (half resolution).
+  view_keyframes_->Offer(job.sequence, job.frame->depth, job.frame->depth_scale, job.frame->camera,
+                         Isometry(pose));
   std::set<int> objects;
   int events = 0;
   {
@@ -211,11 +216,6 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
       objects.insert(v.object_index);
     }
     const ReconcileParams params{.map_id = id_, .visible = options_.config.recognition.visible};
-    const ViewFrame view{.depth = &job.frame->depth,
-                         .depth_scale = job.frame->depth_scale,
-                         .camera = job.frame->camera,
-                         .camera_from_world = Isometry(pose).inverse().cast<float>(),
-                         .min_depth = options_.config.integration.min_depth};
     for (int o : objects) {
       events += ReconcileInstances(*model_, params,
                                    {.object_index = o,
@@ -223,7 +223,7 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
                                     .frame = job.sequence,
                                     .frame_time_us = job.time_us,
                                     .frame_supports = true,
-                                    .view = &view},
+                                    .views = view_keyframes_->views()},
                                    &state_);
     }
   }
@@ -243,6 +243,7 @@ void LiveMap::StageRecognitionMove(uint64_t sequence, const perception::RgbdFram
     recognition::AddLabels(*observed, new_pose, labels_grid(), &labels_add_);
   }
   hypothesis_moves_[sequence] = Isometry(new_pose) * Isometry(old_pose).inverse();
+  view_keyframes_->Move(sequence, Isometry(new_pose));
 }
 
 void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
@@ -301,7 +302,8 @@ void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
           *model_, params,
           {.object_index = o,
            .region = {(r.lo + r.hi) / 2, 0.5f * (r.hi - r.lo).norm() + model_->object(o).radius},
-           .frame = 0},
+           .frame = 0,
+           .views = view_keyframes_->views()},
           &state);
     }
   }

@@ -18,7 +18,7 @@ namespace skimap::server {
 struct InstanceVisibility {
   double min_score = 60;
   double min_fit = 0.20;
-  double max_view_conflict = 0.15;
+  double max_view_conflict = 0.10;
   bool operator()(const Instance& i) const {
     return i.score >= min_score && i.fit >= min_fit && ViewConflict(i) <= max_view_conflict;
   }
