@@ -11,6 +11,7 @@ constexpr float kColourTolerance = 40;    // mean absolute difference per channe
 constexpr float kViewTolerance = 0.015f;  // metres
 constexpr float kViewSlack = 0.01f;       // metres
 constexpr double kNearestView = 0.01;     // metres: bounds the projection (pixels fit a long)
+constexpr size_t kViewPoints = 100;       // surface points a view checks, about
 
 }  // namespace
 
@@ -56,8 +57,9 @@ void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& p
         static_cast<float>(cam.fy) * reach * (1 + std::abs(c.y() / c.z())) / near_z + 1;
     if (u + ru < 0 || v + rv < 0 || u - ru > depth.width || v - rv > depth.height) return;
   }
-  for (const recognition::SurfacePoint& s : shape.surface) {
-    const Eigen::Vector3f p = to_camera * s.p;
+  const size_t stride = std::max<size_t>(1, shape.surface.size() / kViewPoints);
+  for (size_t i = 0; i < shape.surface.size(); i += stride) {
+    const Eigen::Vector3f p = to_camera * shape.surface[i].p;
     if (!(p.z() >= nearest)) continue;
     const long u = std::lround(cam.fx * p.x() / p.z() + cam.cx);
     const long v = std::lround(cam.fy * p.y() / p.z() + cam.cy);

@@ -35,7 +35,8 @@ struct ViewFrame {
   double min_depth = 0.1;  // metres: the sensor's range starts here (the map's min_depth)
 };
 
-// The view check: the object's surface points at `pose`, projected into the frame. The
+// The view check: the object's surface points at `pose` (about 100 of them, evenly taken:
+// a map counts them in each of its keyframes), projected into the frame. The
 // trained surface is voxels (1 cm), so a point may lie up to 1 cm off the true surface,
 // sideways too: each point looks at 3 x 3 pixels spanning 1 cm around its own. It agrees
 // when one of them measured within 15 mm of its depth; it conflicts (the camera saw

@@ -306,5 +306,42 @@ TEST_F(ReconcilerViewTest, PointsNearerThanTheSensorsRangeCountForNeither) {
   EXPECT_EQ(conflict, 6u);
 }
 
+// Keyframes that do not look at an instance are skipped whole; one that sees part of it
+// (its centre beyond the image's edge) still counts that part.
+TEST_F(ReconcilerViewTest, AViewCountsTheObjectsPointsInsideItsImageOnly) {
+  std::fill(depth_.pixels.begin(), depth_.pixels.end(), 3000);  // a wall 3 m away
+  const recognition::ObjectShape& shape = model_.object(0);
+  auto count = [&](const Eigen::Isometry3f& pose) {
+    uint32_t agree = 0, conflict = 0;
+    CountView(shape, pose, view_, &agree, &conflict);
+    return std::pair{agree, conflict};
+  };
+  // The points whose pixel lies inside the image, by brute force.
+  auto inside = [&](const Eigen::Isometry3f& pose) {
+    uint32_t n = 0;
+    for (const recognition::SurfacePoint& p : shape.surface) {
+      const Eigen::Vector3f q = pose * p.p;
+      const long u = std::lround(50.0 * q.x() / q.z() + 32.0);
+      const long v = std::lround(50.0 * q.y() / q.z() + 24.0);
+      n += u >= 0 && u < 64 && v >= 0 && v < 48;
+    }
+    return n;
+  };
+  // Slide the object across the right edge (u = 64 at x = 0.64 z) at 1 m.
+  int partly = 0;
+  for (float x = 0.55f; x <= 0.80f; x += 0.005f) {
+    const Eigen::Isometry3f pose = At(Eigen::Vector3f(x, 0, 1) - shape.centre);
+    const auto [agree, conflict] = count(pose);
+    EXPECT_EQ(agree, 0u);
+    // Every point inside sees the wall behind it in 6 or more of its 9 pixels.
+    EXPECT_EQ(conflict, inside(pose)) << x;
+    partly += inside(pose) > 0 && inside(pose) < shape.surface.size();
+  }
+  EXPECT_GT(partly, 0);
+  // Far beside the image, and behind the camera: nothing.
+  EXPECT_EQ(count(At({3, 0, 1})), (std::pair<uint32_t, uint32_t>{0, 0}));
+  EXPECT_EQ(count(At({0, 0, -1})), (std::pair<uint32_t, uint32_t>{0, 0}));
+}
+
 }  // namespace
 }  // namespace skimap::server
