@@ -8,6 +8,7 @@ namespace skimap::server {
 bool ViewKeyframes::Offer(uint64_t sequence, const perception::DepthImage& depth,
                           double depth_scale, const perception::PinholeCamera& camera,
                           const Eigen::Isometry3d& world_from_camera) {
+  if (options_.capacity == 0) return false;
   const double min_angle = options_.min_angle_deg * std::numbers::pi / 180;
   for (const Kept& k : kept_) {
     const double distance =
@@ -17,7 +18,6 @@ bool ViewKeyframes::Offer(uint64_t sequence, const perception::DepthImage& depth
             .angle();
     if (distance < options_.min_distance && angle < min_angle) return false;
   }
-  if (options_.capacity == 0) return false;
   if (kept_.size() >= options_.capacity) kept_.pop_front();
   Kept k{.sequence = sequence,
          .depth = {},
@@ -51,11 +51,6 @@ void ViewKeyframes::Move(uint64_t sequence, const Eigen::Isometry3d& world_from_
       return;
     }
   }
-}
-
-void ViewKeyframes::Clear() {
-  kept_.clear();
-  views_.clear();
 }
 
 void ViewKeyframes::RebuildViews() {

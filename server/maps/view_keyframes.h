@@ -40,9 +40,7 @@ class ViewKeyframes {
   // Frame `sequence` moved (UpdatePoses); a frame not kept is ignored.
   void Move(uint64_t sequence, const Eigen::Isometry3d& world_from_camera);
 
-  void Clear();
-
-  // The kept frames as views for CountView; valid until the next Offer, Move or Clear.
+  // The kept frames as views for CountView; valid until the next Offer or Move.
   const std::vector<ViewFrame>& views() const { return views_; }
 
  private:

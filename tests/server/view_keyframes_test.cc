@@ -92,8 +92,28 @@ TEST_F(ViewKeyframesTest, AKeptFrameFollowsItsPoseUpdate) {
   // A frame near the new place is no longer new; one at the old place is.
   EXPECT_FALSE(Offer(k, 9, Pose({1, 2, 3}, 30)));
   EXPECT_TRUE(Offer(k, 10, Pose({0, 0, 0}, 0)));
-  k.Clear();
-  EXPECT_TRUE(k.views().empty());
+}
+
+// The smallest frame a client may send (1 x 1 pixels) leaves an empty half image: kept, and
+// nothing is read from it (ASan runs this).
+TEST_F(ViewKeyframesTest, AOnePixelFrameLeavesAnEmptyViewThatCountsNothing) {
+  ViewKeyframes k({});
+  const perception::DepthImage one{.width = 1, .height = 1, .pixels = {1000}};
+  ASSERT_TRUE(k.Offer(1, one, 0.001,
+                      {.fx = 1, .fy = 1, .cx = 0.5, .cy = 0.5, .width = 1, .height = 1},
+                      Pose({0, 0, 0}, 0)));
+  const ViewFrame& v = k.views()[0];
+  EXPECT_EQ(v.depth->width, 0);
+  EXPECT_EQ(v.depth->height, 0);
+  EXPECT_TRUE(v.depth->pixels.empty());
+  recognition::ObjectShape shape;
+  shape.surface = {{Eigen::Vector3f(0, 0, 0), {}}, {Eigen::Vector3f(0.01f, 0, 0), {}}};
+  shape.radius = 0.01f;
+  uint32_t agree = 0, conflict = 0;
+  Eigen::Isometry3f pose = Eigen::Isometry3f::Identity();
+  pose.translation() = Eigen::Vector3f(0, 0, 1);
+  CountView(shape, pose, v, &agree, &conflict);
+  EXPECT_EQ(agree + conflict, 0u);
 }
 
 }  // namespace
