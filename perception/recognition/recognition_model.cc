@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <limits>
+#include <vector>
 
+#include "Eigen/Eigenvalues"
+#include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
 #include "skimap/encoding.h"
 #include "skimap/serialization.h"
@@ -10,6 +13,35 @@
 
 namespace skimap::recognition {
 namespace {
+
+// The normal of a voxel surface at key `k`: the least-variance axis of the occupied voxels
+// within 2 voxels; zero when fewer than 6 lie there or they are not flat (the two smaller
+// variances alike: a rod or a blob, where no plane is defined).
+Eigen::Vector3f VoxelNormal(const absl::flat_hash_set<uint64_t>& occupied, const VoxelKey& k) {
+  constexpr int kReach = 2;
+  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+  Eigen::Matrix3f outer = Eigen::Matrix3f::Zero();
+  int n = 0;
+  for (int dx = -kReach; dx <= kReach; ++dx) {
+    for (int dy = -kReach; dy <= kReach; ++dy) {
+      for (int dz = -kReach; dz <= kReach; ++dz) {
+        if (!occupied.contains(PackKey(VoxelKey{k.x + dx, k.y + dy, k.z + dz}))) continue;
+        const Eigen::Vector3f d(dx, dy, dz);
+        sum += d;
+        outer += d * d.transpose();
+        ++n;
+      }
+    }
+  }
+  if (n < 6) return Eigen::Vector3f::Zero();
+  const Eigen::Vector3f mean = sum / n;
+  const Eigen::Matrix3f cov = outer / n - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> eig(cov);  // eigenvalues ascending
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues()(0) < 0.5f * eig.eigenvalues()(1))) {
+    return Eigen::Vector3f::Zero();
+  }
+  return eig.eigenvectors().col(0).normalized();
+}
 
 // Bounding box of the object's trained surface in the model frame: its RGB volume when it
 // has one, else its descriptor voxels. `surface` gets up to kSurfacePoints of the RGB
@@ -28,14 +60,19 @@ void Extent(const objects::ObjectModel& o, double resolution, Eigen::Vector3f* l
     if (rgb.ok() && !(*rgb)->empty()) {
       const double r = (*rgb)->grid().resolution();
       const size_t step = std::max<size_t>(1, (*rgb)->size() / kSurfacePoints);
+      absl::flat_hash_set<uint64_t> occupied;
+      std::vector<VoxelKey> keys;
       size_t i = 0;
       (*rgb)->ForEach([&](const VoxelKey& k, const RGBWeightedVoxel& v) {
         const Eigen::Vector3f p = objects::VoxelCenter(k, r).cast<float>();
         add(p);
+        occupied.insert(PackKey(k));
         if (i++ % step == 0 && surface->size() < kSurfacePoints) {
           surface->push_back({p, Eigen::Vector3f(v.Red(), v.Green(), v.Blue())});
+          keys.push_back(k);
         }
       });
+      for (size_t j = 0; j < keys.size(); ++j) (*surface)[j].normal = VoxelNormal(occupied, keys[j]);
       return;
     }
   }

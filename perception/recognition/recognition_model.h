@@ -21,10 +21,13 @@
 
 namespace skimap::recognition {
 
-// A point of an object's trained surface (its RGB volume), model frame, with its colour.
+// A point of an object's trained surface (its RGB volume), model frame, with its colour
+// and the surface's normal there (unit, either sign: the least-variance axis of the
+// trained voxels within 2 cm; zero where they do not span a plane, e.g. a thin rod).
 struct SurfacePoint {
   Eigen::Vector3f p = Eigen::Vector3f::Zero();
   Eigen::Vector3f rgb = Eigen::Vector3f::Zero();  // 0..255
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
 };
 
 struct ObjectShape {

@@ -12,6 +12,10 @@ constexpr float kViewTolerance = 0.015f;  // metres
 constexpr float kViewSlack = 0.01f;       // metres
 constexpr double kNearestView = 0.01;     // metres: bounds the projection (pixels fit a long)
 constexpr size_t kViewPoints = 100;       // surface points a view checks, about
+// A point whose surface the view ray grazes (|cos| of the angle between them under this,
+// more than 70 degrees) counts for neither: there a pose a millimetre off, or the trained
+// voxels' centimetre, puts the point beside the silhouette, in front of the background.
+constexpr float kMinViewCosine = 0.35f;
 
 }  // namespace
 
@@ -61,6 +65,8 @@ void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& p
   for (size_t i = 0; i < shape.surface.size(); i += stride) {
     const Eigen::Vector3f p = to_camera * shape.surface[i].p;
     if (!(p.z() >= nearest)) continue;
+    const Eigen::Vector3f n = to_camera.linear() * shape.surface[i].normal;
+    if (!n.isZero() && std::abs(n.dot(p)) < kMinViewCosine * p.norm()) continue;
     const long u = std::lround(cam.fx * p.x() / p.z() + cam.cx);
     const long v = std::lround(cam.fy * p.y() / p.z() + cam.cy);
     const long r = std::max(1L, std::lround(cam.fx * kViewSlack / p.z()));

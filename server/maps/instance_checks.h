@@ -41,8 +41,9 @@ struct ViewFrame {
 // sideways too: each point looks at 3 x 3 pixels spanning 1 cm around its own. It agrees
 // when one of them measured within 15 mm of its depth; it conflicts (the camera saw
 // through it) when at least 5 of them measured and all lie more than 15 mm behind it;
-// otherwise (occluded, unmeasured, at a silhouette, or nearer than the sensor's range,
-// never nearer than 1 cm) it counts for neither. Adds to *agree and *conflict.
+// otherwise (occluded, unmeasured, at a silhouette, nearer than the sensor's range, never
+// nearer than 1 cm, or on a surface the view ray grazes: more than 70 degrees off its
+// normal) it counts for neither. Adds to *agree and *conflict.
 void CountView(const recognition::ObjectShape& shape, const Eigen::Isometry3f& pose,
                const ViewFrame& view, uint32_t* agree, uint32_t* conflict);
 

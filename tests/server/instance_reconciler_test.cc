@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <span>
 #include <vector>
@@ -341,6 +342,57 @@ TEST_F(ReconcilerViewTest, AViewCountsTheObjectsPointsInsideItsImageOnly) {
   // Far beside the image, and behind the camera: nothing.
   EXPECT_EQ(count(At({3, 0, 1})), (std::pair<uint32_t, uint32_t>{0, 0}));
   EXPECT_EQ(count(At({0, 0, -1})), (std::pair<uint32_t, uint32_t>{0, 0}));
+}
+
+// Surface normals of the trained voxels (recognition_model.h SurfacePoint::normal) and the
+// view check's grazing rule: a 7 x 7 cm plate (flat: its normals are its axis) and a rod
+// (no plane: no normal).
+TEST(SurfaceNormalsTest, APlatesPointsHaveItsAxisAsNormalAndARodNone) {
+  std::vector<VoxelKey> plate, rod;
+  for (int x = -3; x <= 3; ++x) {
+    for (int y = -3; y <= 3; ++y) plate.push_back({x, y, 0});
+  }
+  for (int x = -24; x <= 24; ++x) rod.push_back({x, 0, 0});
+  const auto db = std::make_shared<objects::ObjectDatabase>(
+      objects::SmallOrbDatabase({plate}, true));
+  const auto rod_db =
+      std::make_shared<objects::ObjectDatabase>(objects::SmallOrbDatabase({rod}, true));
+  const recognition::RecognitionModel model = *recognition::RecognitionModel::Create(db, {});
+  const recognition::RecognitionModel rod_model =
+      *recognition::RecognitionModel::Create(rod_db, {});
+  ASSERT_EQ(model.object(0).surface.size(), 49u);  // corners too: their neighbours are flat
+  for (const recognition::SurfacePoint& s : model.object(0).surface) {
+    EXPECT_NEAR(std::abs(s.normal.z()), 1.0f, 1e-4f) << s.p.transpose();
+  }
+  ASSERT_EQ(rod_model.object(0).surface.size(), 49u);
+  for (const recognition::SurfacePoint& s : rod_model.object(0).surface) {
+    EXPECT_TRUE(s.normal.isZero()) << s.p.transpose();
+  }
+
+  // Seen face-on at 1 m in front of a wall 3 m away, every point contradicts the wall; seen
+  // edge-on (the plate turned 90 degrees about y: the view rays graze it) none counts.
+  perception::DepthImage wall;
+  wall.width = 64;
+  wall.height = 48;
+  wall.pixels.assign(64 * 48, 3000);
+  const ViewFrame view{.depth = &wall,
+                       .depth_scale = 0.001,
+                       .camera = {.fx = 50, .fy = 50, .cx = 32, .cy = 24, .width = 64, .height = 48}};
+  Eigen::Isometry3f face_on = Eigen::Isometry3f::Identity();
+  face_on.translation() = Eigen::Vector3f(0, 0, 1);
+  Eigen::Isometry3f edge_on = face_on;
+  edge_on.linear() = Eigen::AngleAxisf(static_cast<float>(M_PI / 2), Eigen::Vector3f::UnitY())
+                         .toRotationMatrix();
+  uint32_t agree = 0, conflict = 0;
+  CountView(model.object(0), face_on, view, &agree, &conflict);
+  EXPECT_EQ(agree, 0u);
+  EXPECT_EQ(conflict, 49u);
+  agree = conflict = 0;
+  CountView(model.object(0), edge_on, view, &agree, &conflict);
+  EXPECT_EQ(agree + conflict, 0u);
+  // A rod has no normal: it counts from any side (what the check did for every point).
+  CountView(rod_model.object(0), edge_on, view, &agree, &conflict);
+  EXPECT_EQ(conflict, 49u);
 }
 
 }  // namespace

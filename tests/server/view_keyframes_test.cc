@@ -107,7 +107,7 @@ TEST_F(ViewKeyframesTest, AOnePixelFrameLeavesAnEmptyViewThatCountsNothing) {
   EXPECT_EQ(v.depth->height, 0);
   EXPECT_TRUE(v.depth->pixels.empty());
   recognition::ObjectShape shape;
-  shape.surface = {{Eigen::Vector3f(0, 0, 0), {}}, {Eigen::Vector3f(0.01f, 0, 0), {}}};
+  shape.surface = {{.p = Eigen::Vector3f(0, 0, 0)}, {.p = Eigen::Vector3f(0.01f, 0, 0)}};
   shape.radius = 0.01f;
   uint32_t agree = 0, conflict = 0;
   Eigen::Isometry3f pose = Eigen::Isometry3f::Identity();
