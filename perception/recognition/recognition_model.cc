@@ -72,7 +72,8 @@ void Extent(const objects::ObjectModel& o, double resolution, Eigen::Vector3f* l
           keys.push_back(k);
         }
       });
-      for (size_t j = 0; j < keys.size(); ++j) (*surface)[j].normal = VoxelNormal(occupied, keys[j]);
+      for (size_t j = 0; j < keys.size(); ++j)
+        (*surface)[j].normal = VoxelNormal(occupied, keys[j]);
       return;
     }
   }

@@ -353,8 +353,8 @@ TEST(SurfaceNormalsTest, APlatesPointsHaveItsAxisAsNormalAndARodNone) {
     for (int y = -3; y <= 3; ++y) plate.push_back({x, y, 0});
   }
   for (int x = -24; x <= 24; ++x) rod.push_back({x, 0, 0});
-  const auto db = std::make_shared<objects::ObjectDatabase>(
-      objects::SmallOrbDatabase({plate}, true));
+  const auto db =
+      std::make_shared<objects::ObjectDatabase>(objects::SmallOrbDatabase({plate}, true));
   const auto rod_db =
       std::make_shared<objects::ObjectDatabase>(objects::SmallOrbDatabase({rod}, true));
   const recognition::RecognitionModel model = *recognition::RecognitionModel::Create(db, {});
@@ -375,14 +375,15 @@ TEST(SurfaceNormalsTest, APlatesPointsHaveItsAxisAsNormalAndARodNone) {
   wall.width = 64;
   wall.height = 48;
   wall.pixels.assign(64 * 48, 3000);
-  const ViewFrame view{.depth = &wall,
-                       .depth_scale = 0.001,
-                       .camera = {.fx = 50, .fy = 50, .cx = 32, .cy = 24, .width = 64, .height = 48}};
+  const ViewFrame view{
+      .depth = &wall,
+      .depth_scale = 0.001,
+      .camera = {.fx = 50, .fy = 50, .cx = 32, .cy = 24, .width = 64, .height = 48}};
   Eigen::Isometry3f face_on = Eigen::Isometry3f::Identity();
   face_on.translation() = Eigen::Vector3f(0, 0, 1);
   Eigen::Isometry3f edge_on = face_on;
-  edge_on.linear() = Eigen::AngleAxisf(static_cast<float>(M_PI / 2), Eigen::Vector3f::UnitY())
-                         .toRotationMatrix();
+  edge_on.linear() =
+      Eigen::AngleAxisf(static_cast<float>(M_PI / 2), Eigen::Vector3f::UnitY()).toRotationMatrix();
   uint32_t agree = 0, conflict = 0;
   CountView(model.object(0), face_on, view, &agree, &conflict);
   EXPECT_EQ(agree, 0u);
