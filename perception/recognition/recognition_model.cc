@@ -45,9 +45,9 @@ Eigen::Vector3f VoxelNormal(const absl::flat_hash_set<uint64_t>& occupied, const
 
 // Bounding box of the object's trained surface in the model frame: its RGB volume when it
 // has one, else its descriptor voxels. `surface` gets up to kSurfacePoints of the RGB
-// volume's voxels, evenly taken.
+// volume's voxels, evenly taken, and *area the RGB volume's voxels times a voxel's face.
 void Extent(const objects::ObjectModel& o, double resolution, Eigen::Vector3f* lo,
-            Eigen::Vector3f* hi, std::vector<SurfacePoint>* surface) {
+            Eigen::Vector3f* hi, std::vector<SurfacePoint>* surface, float* area) {
   *lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   *hi = -*lo;
   auto add = [&](const Eigen::Vector3f& p) {
@@ -59,6 +59,7 @@ void Extent(const objects::ObjectModel& o, double resolution, Eigen::Vector3f* l
         DeserializeMap<RGBWeightedVoxel>(o.rgb_volume, {});
     if (rgb.ok() && !(*rgb)->empty()) {
       const double r = (*rgb)->grid().resolution();
+      *area = static_cast<float>(static_cast<double>((*rgb)->size()) * r * r);
       const size_t step = std::max<size_t>(1, (*rgb)->size() / kSurfacePoints);
       absl::flat_hash_set<uint64_t> occupied;
       std::vector<VoxelKey> keys;
@@ -96,7 +97,7 @@ absl::StatusOr<RecognitionModel> RecognitionModel::Create(
     s.name = o.name;
     s.wanted = obj_ids.empty();
     Eigen::Vector3f lo, hi;
-    Extent(o, res, &lo, &hi, &s.surface);
+    Extent(o, res, &lo, &hi, &s.surface, &s.surface_area);
     s.centre = (lo + hi) / 2;
     s.base = {s.centre.x(), s.centre.y(), lo.z()};
     s.half_extent = (hi - lo) / 2;

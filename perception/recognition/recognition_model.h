@@ -44,6 +44,9 @@ struct ObjectShape {
   // Up to kSurfacePoints points of the trained surface, evenly taken (for verifying a pose
   // against the map's RGB volume); empty when the object has no RGB volume.
   std::vector<SurfacePoint> surface;
+  // The trained surface's area, m²: its RGB volume's voxels times a voxel's face; 0
+  // without one.
+  float surface_area = 0;
 };
 
 inline constexpr size_t kSurfacePoints = 400;

@@ -223,7 +223,9 @@ class Reconciler {
     *estimates = std::move(kept);
   }
 
-  bool Visible(const Instance& i) const { return i.id != 0 && params_.visible(i); }
+  bool Visible(const Instance& i) const {
+    return i.id != 0 && IsVisible(params_.visible, i, &model_);
+  }
 
   void Update(Instance& inst, const InstanceEstimate& e, uint32_t obj_id) {
     const Instance before = inst;
@@ -376,6 +378,12 @@ void SetTime(int64_t us, google::protobuf::Timestamp* t) {
 int ReconcileInstances(const recognition::RecognitionModel& model, const ReconcileParams& params,
                        const ReconcileRequest& request, MapState* state) {
   return Reconciler(model, params, request, state).Run();
+}
+
+bool IsVisible(const InstanceVisibility& visible, const Instance& instance,
+               const recognition::RecognitionModel* model) {
+  const int index = model == nullptr ? -1 : model->FindObject(static_cast<int>(instance.object_id));
+  return visible(instance, index < 0 ? 0.0 : model->object(index).surface_area);
 }
 
 v1::Instance ToProto(const Instance& i, const recognition::RecognitionModel* model,

@@ -59,6 +59,11 @@ struct ReconcileParams {
 int ReconcileInstances(const recognition::RecognitionModel& model, const ReconcileParams& params,
                        const ReconcileRequest& request, MapState* state);
 
+// Whether `instance` is visible under `visible`, its object's trained surface taken from
+// `model` (null, or an object it does not hold: the unscaled min_score).
+bool IsVisible(const InstanceVisibility& visible, const Instance& instance,
+               const recognition::RecognitionModel* model);
+
 // The API view of an instance of map `map_id`.
 v1::Instance ToProto(const Instance& instance, const recognition::RecognitionModel* model,
                      const std::string& map_id);

@@ -111,7 +111,8 @@ absl::StatusOr<v1::ListInstancesResponse> MapService::ListInstances(
     response.set_event_sequence(s.recognition.log.last_sequence());
     s.instances.ForEach([&](const VoxelKey&, const InstancesVoxel& voxel) {
       for (const Instance& i : voxel.items()) {
-        if (i.id <= after || i.score < request.min_score() || !visible(i) || !(*in_region)(i)) {
+        if (i.id <= after || i.score < request.min_score() ||
+            !IsVisible(visible, i, m.recognition_model()) || !(*in_region)(i)) {
           continue;
         }
         if (!objects.empty() && std::find(objects.begin(), objects.end(),
@@ -161,7 +162,8 @@ absl::StatusOr<v1::Instance> MapService::GetInstance(const v1::GetInstanceReques
     }
     return std::nullopt;
   });
-  if (!found.has_value() || !m.config().recognition.visible(*found)) {
+  if (!found.has_value() ||
+      !IsVisible(m.config().recognition.visible, *found, m.recognition_model())) {
     return absl::NotFoundError(absl::StrCat("instance ", id, " not found in ", MapName(m.id())));
   }
   return ToProto(*found, m.recognition_model(), m.id());

@@ -5,6 +5,7 @@
 #ifndef SERVER_MAPS_RECOGNITION_CONFIG_H_
 #define SERVER_MAPS_RECOGNITION_CONFIG_H_
 
+#include <cmath>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -13,14 +14,24 @@
 
 namespace skimap::server {
 
+// The trained surface (m², 400 voxels of 1 cm) whose objects are asked min_score itself.
+inline constexpr double kReferenceSurface = 0.04;
+
 // When an instance is visible: listed, reported by events, found by GetInstance
-// (docs/recognition.md, "Global instances").
+// (docs/recognition.md, "Global instances"). The score asked grows with the square root of
+// the object's trained surface: an object of surface A is asked
+// min_score * sqrt(A / kReferenceSurface) (a 5 cm cube about 0.58 min_score), one of
+// unknown surface (0) min_score.
 struct InstanceVisibility {
-  double min_score = 60;
-  double min_fit = 0.20;
-  double max_view_conflict = 0.10;
-  bool operator()(const Instance& i) const {
-    return i.score >= min_score && i.fit >= min_fit && ViewConflict(i) <= max_view_conflict;
+  double min_score = 40;
+  double min_fit = 0.15;
+  double max_view_conflict = 0.06;
+  double MinScore(double surface_area) const {
+    return surface_area > 0 ? min_score * std::sqrt(surface_area / kReferenceSurface) : min_score;
+  }
+  bool operator()(const Instance& i, double surface_area) const {
+    return i.score >= MinScore(surface_area) && i.fit >= min_fit &&
+           ViewConflict(i) <= max_view_conflict;
   }
   friend bool operator==(const InstanceVisibility&, const InstanceVisibility&) = default;
 };
