@@ -396,5 +396,35 @@ TEST(SurfaceNormalsTest, APlatesPointsHaveItsAxisAsNormalAndARodNone) {
   EXPECT_EQ(conflict, 49u);
 }
 
+// The score asked of an instance grows with the square root of its object's trained
+// surface (recognition_config.h InstanceVisibility): min_score at 0.04 m².
+TEST(VisibilityTest, TheScoreAskedGrowsWithTheSquareRootOfTheObjectsSurface) {
+  const InstanceVisibility visible{.min_score = 40, .min_fit = 0, .max_view_conflict = 1};
+  EXPECT_DOUBLE_EQ(visible.MinScore(0.04), 40);
+  EXPECT_DOUBLE_EQ(visible.MinScore(0.01), 20);
+  EXPECT_DOUBLE_EQ(visible.MinScore(0.16), 80);
+  EXPECT_DOUBLE_EQ(visible.MinScore(0), 40);  // unknown: unscaled
+  std::vector<VoxelKey> plate;  // 7 x 7 voxels of 1 cm: 0.0049 m², asked 40 * 0.35 = 14
+  for (int x = -3; x <= 3; ++x) {
+    for (int y = -3; y <= 3; ++y) plate.push_back({x, y, 0});
+  }
+  const recognition::RecognitionModel model = *recognition::RecognitionModel::Create(
+      std::make_shared<objects::ObjectDatabase>(objects::SmallOrbDatabase({plate}, true)), {});
+  EXPECT_NEAR(model.object(0).surface_area, 0.0049f, 1e-6f);
+  Instance i;
+  i.object_id = kObjId;
+  i.fit = 1;
+  i.score = 15;
+  EXPECT_TRUE(IsVisible(visible, i, &model));
+  i.score = 13;
+  EXPECT_FALSE(IsVisible(visible, i, &model));
+  i.score = 39;  // without the model, or of an object it does not hold: 40 asked
+  EXPECT_FALSE(IsVisible(visible, i, nullptr));
+  i.object_id = kObjId + 7;
+  EXPECT_FALSE(IsVisible(visible, i, &model));
+  i.score = 40;
+  EXPECT_TRUE(IsVisible(visible, i, &model));
+}
+
 }  // namespace
 }  // namespace skimap::server
