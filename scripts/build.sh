@@ -26,14 +26,15 @@ case "$flavour" in
   *) echo "unknown flavour: $flavour" >&2; exit 2 ;;
 esac
 # The browser viewer (web/, served by skimapd at /): its npm packages exactly as
-# web/package-lock.json says, then web/dist, rebuilt when a source is newer.
+# web/package-lock.json says, then web/dist, rebuilt when a source is newer (the .proto
+# files too: web/src/proto.js bundles them as text).
 if command -v npm >/dev/null; then
   if [[ ! -d web/node_modules || web/package-lock.json -nt web/node_modules ]]; then
     (cd web && npm ci --no-audit --no-fund --loglevel=error >/dev/null && touch node_modules)
   fi
   if [[ ! -f web/dist/index.html ]] ||
     [[ -n "$(find web/index.html web/src web/public web/vite.config.js web/package-lock.json \
-      -newer web/dist/index.html -print -quit)" ]]; then
+      proto -newer web/dist/index.html -print -quit)" ]]; then
     (cd web && npm run --silent build >/dev/null)
   fi
 else
