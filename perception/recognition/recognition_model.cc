@@ -16,16 +16,22 @@ namespace {
 
 // The normal of a voxel surface at key `k`: the least-variance axis of the occupied voxels
 // within 2 voxels; zero when fewer than 6 lie there or they are not flat (the two smaller
-// variances alike: a rod or a blob, where no plane is defined).
+// variances alike: a rod or a blob, where no plane is defined). `occupied` holds PackKey
+// values; neighbours beyond the key range are not looked up (their packing would alias
+// other keys).
 Eigen::Vector3f VoxelNormal(const absl::flat_hash_set<uint64_t>& occupied, const VoxelKey& k) {
   constexpr int kReach = 2;
+  auto in_range = [](int32_t v) { return v >= kMinKey && v <= kMaxKey; };
   Eigen::Vector3f sum = Eigen::Vector3f::Zero();
   Eigen::Matrix3f outer = Eigen::Matrix3f::Zero();
   int n = 0;
   for (int dx = -kReach; dx <= kReach; ++dx) {
     for (int dy = -kReach; dy <= kReach; ++dy) {
       for (int dz = -kReach; dz <= kReach; ++dz) {
-        if (!occupied.contains(PackKey(VoxelKey{k.x + dx, k.y + dy, k.z + dz}))) continue;
+        const VoxelKey q{k.x + dx, k.y + dy, k.z + dz};
+        if (!in_range(q.x) || !in_range(q.y) || !in_range(q.z) || !occupied.contains(PackKey(q))) {
+          continue;
+        }
         const Eigen::Vector3f d(dx, dy, dz);
         sum += d;
         outer += d * d.transpose();
@@ -59,7 +65,10 @@ void Extent(const objects::ObjectModel& o, double resolution, Eigen::Vector3f* l
         DeserializeMap<RGBWeightedVoxel>(o.rgb_volume, {});
     if (rgb.ok() && !(*rgb)->empty()) {
       const double r = (*rgb)->grid().resolution();
-      *area = static_cast<float>(static_cast<double>((*rgb)->size()) * r * r);
+      // A stored resolution is finite and positive, but may be absurd: an area that is not
+      // a finite float is unknown (0).
+      const double a = static_cast<double>((*rgb)->size()) * r * r;
+      *area = a <= std::numeric_limits<float>::max() ? static_cast<float>(a) : 0.0f;
       const size_t step = std::max<size_t>(1, (*rgb)->size() / kSurfacePoints);
       absl::flat_hash_set<uint64_t> occupied;
       std::vector<VoxelKey> keys;

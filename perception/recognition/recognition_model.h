@@ -45,7 +45,7 @@ struct ObjectShape {
   // against the map's RGB volume); empty when the object has no RGB volume.
   std::vector<SurfacePoint> surface;
   // The trained surface's area, m²: its RGB volume's voxels times a voxel's face; 0
-  // without one.
+  // without one, or when that is not a finite float (an absurd stored resolution).
   float surface_area = 0;
 };
 

@@ -35,7 +35,7 @@ RandomForest SmallOrbForest(int classes) {
 }
 
 ObjectDatabase SmallOrbDatabase(const std::vector<std::vector<VoxelKey>>& voxels_per_object,
-                                bool with_surface) {
+                                bool with_surface, double surface_resolution) {
   const int per_object = static_cast<int>(voxels_per_object.at(0).size());
   ObjectDatabaseParams p;
   p.features.detector = "ORB";
@@ -58,7 +58,8 @@ ObjectDatabase SmallOrbDatabase(const std::vector<std::vector<VoxelKey>>& voxels
       m.voxels.push_back(std::move(v));
     }
     if (with_surface) {
-      SkiMap<RGBWeightedVoxel> rgb({.resolution = resolved->resolution});
+      SkiMap<RGBWeightedVoxel> rgb(
+          {.resolution = surface_resolution > 0 ? surface_resolution : resolved->resolution});
       for (const VoxelKey& k : voxels_per_object[o]) rgb.IntegrateKey(k, {128, 128, 128, 1});
       m.rgb_volume = SerializeMap(rgb);
     }

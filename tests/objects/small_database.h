@@ -21,10 +21,11 @@ inline constexpr int kSmallDims = 256;  // ORB: 256 bits, one 0/1 feature each
 RandomForest SmallOrbForest(int classes);
 
 // REQUIRES: every object has the same number of voxels (the classes per object), >= 1.
-// `with_surface`: each object also gets an RGB volume (grey, at the database's 1 cm) of
-// exactly its descriptor voxels, so the recognition model has surface points for it.
+// `with_surface`: each object also gets an RGB volume (grey, at the database's 1 cm, or at
+// `surface_resolution` metres when > 0: a stored volume's own, however absurd) of exactly
+// its descriptor voxels, so the recognition model has surface points for it.
 ObjectDatabase SmallOrbDatabase(const std::vector<std::vector<VoxelKey>>& voxels_per_object,
-                                bool with_surface = false);
+                                bool with_surface = false, double surface_resolution = 0);
 
 }  // namespace skimap::objects
 

@@ -368,6 +368,19 @@ TEST(SurfaceNormalsTest, APlatesPointsHaveItsAxisAsNormalAndARodNone) {
   for (const recognition::SurfacePoint& s : rod_model.object(0).surface) {
     EXPECT_TRUE(s.normal.isZero()) << s.p.transpose();
   }
+  // At the key range's edge: a rod at z = kMaxKey and one at (y + 1, z = kMinKey), where a
+  // packed key one past kMaxKey would land. Still two rods: no normal on either.
+  std::vector<VoxelKey> edge_rods;
+  for (int x = -12; x < 12; ++x) {
+    edge_rods.push_back({x, 0, kMaxKey});
+    edge_rods.push_back({x, 1, kMinKey});
+  }
+  const recognition::RecognitionModel edge_model = *recognition::RecognitionModel::Create(
+      std::make_shared<objects::ObjectDatabase>(objects::SmallOrbDatabase({edge_rods}, true)), {});
+  ASSERT_EQ(edge_model.object(0).surface.size(), edge_rods.size());
+  for (const recognition::SurfacePoint& s : edge_model.object(0).surface) {
+    EXPECT_TRUE(s.normal.isZero()) << s.p.transpose() << " / " << s.normal.transpose();
+  }
 
   // Seen face-on at 1 m in front of a wall 3 m away, every point contradicts the wall; seen
   // edge-on (the plate turned 90 degrees about y: the view rays graze it) none counts.
@@ -424,6 +437,21 @@ TEST(VisibilityTest, TheScoreAskedGrowsWithTheSquareRootOfTheObjectsSurface) {
   EXPECT_FALSE(IsVisible(visible, i, &model));
   i.score = 40;
   EXPECT_TRUE(IsVisible(visible, i, &model));
+  // A stored surface at an absurd resolution (1e200 m: the area overflows a float; 1e-30 m:
+  // it underflows) has an unknown area: the unscaled 40 is asked, nothing NaN.
+  for (const double resolution : {1e200, 1e-30}) {
+    const recognition::RecognitionModel odd = *recognition::RecognitionModel::Create(
+        std::make_shared<objects::ObjectDatabase>(
+            objects::SmallOrbDatabase({plate}, true, resolution)),
+        {});
+    EXPECT_EQ(odd.object(0).surface_area, 0.0f) << resolution;
+    EXPECT_EQ(odd.object(0).surface.size(), 49u);
+    i.object_id = kObjId;
+    i.score = 39;
+    EXPECT_FALSE(IsVisible(visible, i, &odd)) << resolution;
+    i.score = 40;
+    EXPECT_TRUE(IsVisible(visible, i, &odd)) << resolution;
+  }
 }
 
 }  // namespace
