@@ -6,7 +6,7 @@
 //
 // One real skimapd process (tests/common/skimapd_process.h) on loopback sockets, a map of
 // 2 cm voxels made from --poses frames (640x480, RAW_U16) of the analytic floor-and-box
-// scene of the server tests (tests/server/synthetic_scene.h), seen from a circle of poses
+// scene of the server tests (tests/common/synthetic_scene.h), seen from a circle of poses
 // 3 m around the box. Then, for each request, side by side:
 //   grid        GetOccupancyGrid of the whole map: gRPC (protobuf) vs REST JSON
 //               (GET /v1/maps/m/occupancyGrid) and REST PGM (?format=pgm)
@@ -42,7 +42,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "tests/common/skimapd_process.h"
-#include "tests/server/synthetic_scene.h"
+#include "tests/common/synthetic_scene.h"
 
 // After Eigen (synthetic_scene.h): httplib pulls <resolv.h>, whose `_res` macro breaks
 // Eigen's headers.

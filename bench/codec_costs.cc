@@ -5,7 +5,7 @@
 #include <string>
 
 #include "bench/samples.h"
-#include "perception/image_codec.h"
+#include "codec/image_codec.h"
 
 namespace skimap::bench {
 namespace {

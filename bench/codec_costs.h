@@ -11,7 +11,7 @@
 namespace skimap::bench {
 
 // Prints a Markdown table: bytes, ratio to raw, median encode and decode ms over reps x
-// the frames, per codec (perception/image_codec.h, the server's own decoders).
+// the frames, per codec (codec/image_codec.h, the server's own decoders).
 void PrintCodecCosts(const std::vector<RealFrame>& frames, int reps);
 
 }  // namespace skimap::bench

@@ -50,7 +50,7 @@
 #include "tests/common/fleet_streamer.h"
 #include "tests/common/postgres_server.h"
 #include "tests/common/skimapd_process.h"
-#include "tests/server/synthetic_scene.h"
+#include "tests/common/synthetic_scene.h"
 
 ABSL_FLAG(int, frames, 80, "frames per stream (ingestion)");
 ABSL_FLAG(int, streams, 3, "streams, one map each (ingestion)");
@@ -75,14 +75,8 @@ void Check(bool ok, const std::string& what) {
 }
 
 v1::Frame Frame(const std::string& map, uint64_t i) {
-  const double angle = 0.37 * double(i);
-  const double radius = 1.6 + 0.3 * std::sin(0.13 * double(i));
-  const double height = 1.1 + 0.4 * std::sin(0.23 * double(i) + 1.0);
-  const Eigen::Vector3d target(0.5, 0.0, 0.25);
-  const Eigen::Vector3d position(target.x() + radius * std::cos(angle),
-                                 target.y() + radius * std::sin(angle), height);
   testing::SyntheticCamera camera{640, 480, 525, 525, 319.5, 239.5};
-  return testing::MakeFrame(map, i, testing::LookingAlong(position, target - position), camera);
+  return testing::MakeFrame(map, i, testing::OrbitView(i), camera);
 }
 
 double Percentile(std::vector<double> v, double p) {

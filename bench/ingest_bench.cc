@@ -8,7 +8,7 @@
 // Frames: the 10 real 640x480 frames of ycbv-0000 (BOP layout, dataset/reader.h), encoded
 // per codec combination (depth raw / PNG16 / zstd / RVL, colour raw / PNG / JPEG q90) as a
 // client sends them. Ours runs what skimapd runs for a frame of StreamFrames after gRPC
-// has parsed it: LiveMap::SubmitFrame (server/maps/live_map.h) on an in-memory map (no
+// has parsed it: LiveMap::SubmitFrame (server/core/maps/live_map.h) on an in-memory map (no
 // journal), i.e. DecodeFrame (decode + validate), ValidatePoseInMap, the frame stages
 // (back-projection + VoxelBatch, perception::BuildFrameBatch) and their Apply
 // (SkiMap::Integrate under the snapshot lock), on the server's ThreadPool
@@ -62,13 +62,13 @@
 #include "bench/codec_costs.h"
 #include "bench/samples.h"
 #include "bench/ycbv_frames.h"
-#include "server/malloc_tuning.h"
-#include "server/maps/frame_decode.h"
-#include "server/maps/frame_stages.h"
-#include "server/maps/live_map.h"
-#include "server/maps/map_config.h"
-#include "server/maps/map_state.h"
-#include "server/work_queue.h"
+#include "server/app/malloc_tuning.h"
+#include "server/core/common/work_queue.h"
+#include "server/core/maps/frame_decode.h"
+#include "server/core/maps/frame_stages.h"
+#include "server/core/maps/live_map.h"
+#include "server/core/maps/map_config.h"
+#include "server/core/maps/map_state.h"
 
 #ifdef SKIMAP_BENCH_OPEN3D
 #include <omp.h>

@@ -27,10 +27,10 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "perception/objects/database_io.h"
 #include "perception/objects/evaluation.h"
 #include "perception/objects/random_forest.h"
 #include "perception/objects/training.h"
+#include "server/core/objects/object_database_io.h"
 
 namespace fs = std::filesystem;
 using namespace skimap::objects;

@@ -9,7 +9,7 @@
 //
 // The object database is trained from the dataset's train split (TrainObjectDatabase) and
 // cached in --db. Frames are sent as the dataset stores them (16-bit PNG depth, PNG or
-// JPEG colour: client/dataset_frames.h), 8 in flight, policy EVERY_FRAME (every frame is
+// JPEG colour: client/cli/dataset_frames.h), 8 in flight, policy EVERY_FRAME (every frame is
 // recognised; its ack waits for it), so frames/s is the whole pipeline's.
 //
 // Mapping throughput (--mapping_only): the scene is streamed with recognition off and with
@@ -38,12 +38,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "bench/samples.h"
-#include "client/dataset_frames.h"
+#include "client/cli/dataset_frames.h"
 #include "dataset/reader.h"
-#include "perception/objects/database_io.h"
 #include "perception/objects/training.h"
 #include "perception/recognition/instance_estimator.h"
-#include "server/maps/map_service.h"
+#include "server/core/maps/map_service.h"
+#include "server/core/objects/object_database_io.h"
 
 ABSL_FLAG(std::string, dataset, "", "BOP dataset root (train/ and test/ splits)");
 ABSL_FLAG(std::string, detector, "ORB", "feature detector of the object database");

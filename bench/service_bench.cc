@@ -38,11 +38,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "client/map_client.h"
+#include "codec/image_codec.h"
 #include "perception/frame_integrator.h"
-#include "perception/image_codec.h"
-#include "server/maps/frame_decode.h"
-#include "server/server.h"
+#include "server/app/server.h"
+#include "server/core/maps/frame_decode.h"
 #include "skimap/skimap.h"
+#include "tests/common/synthetic_scene.h"
 
 ABSL_FLAG(int, frames, 150, "frames per ingestion run (per stream)");
 ABSL_FLAG(int, queries, 200, "grid queries in the latency run");
@@ -100,23 +101,11 @@ double Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const std::vecto
   return best;
 }
 
-// A camera at `position` looking along `forward` (normalized here), x right, y down.
-Eigen::Isometry3d LookAlong(const Eigen::Vector3d& position, Eigen::Vector3d forward) {
-  forward.normalize();
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  Eigen::Matrix3d r;
-  r << right, forward.cross(right), forward;
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = r;
-  pose.translation() = position;
-  return pose;
-}
-
 // Pose k of the loop: radius 6 m, 1.2 m up, looking outwards-forwards and 15 degrees down.
 Eigen::Isometry3d LoopPose(int k) {
   const double a = 2 * M_PI * k / kPoses;
-  return LookAlong({6 * std::cos(a), 6 * std::sin(a), 1.2},
-                   {std::cos(a + 0.9), std::sin(a + 0.9), -0.27});
+  return testing::LookingAlong({6 * std::cos(a), 6 * std::sin(a), 1.2},
+                               {std::cos(a + 0.9), std::sin(a + 0.9), -0.27});
 }
 
 // The line trajectory's world: an aisle along +x with a wall at y = 6 m and shelves of
@@ -136,7 +125,9 @@ std::vector<Box> MakeAisle(int frames) {
 }
 
 // Pose k of the line: (7 k, 0, 1.2), looking at the wall (+y) and 15 degrees down.
-Eigen::Isometry3d LinePose(int k) { return LookAlong({kLineStep * k, 0, 1.2}, {0, 1, -0.27}); }
+Eigen::Isometry3d LinePose(int k) {
+  return testing::LookingAlong({kLineStep * k, 0, 1.2}, {0, 1, -0.27});
+}
 
 // The boxes within `reach` metres of x (in x): what a frame taken at x can see.
 std::vector<Box> Near(const std::vector<Box>& boxes, double x, double reach) {

@@ -70,17 +70,18 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "client/map_client.h"
+#include "codec/image_codec.h"
 #include "opencv2/imgcodecs.hpp"
-#include "perception/image_codec.h"
-#include "server/maps/chunk_codec.h"
-#include "server/maps/map_config.h"
-#include "server/maps/map_exporter.h"
-#include "server/maps/map_importer.h"
-#include "server/maps/map_service.h"
-#include "server/server.h"
+#include "server/app/server.h"
+#include "server/core/maps/map_config.h"
+#include "server/core/maps/map_service.h"
+#include "server/core/transfer/chunk_codec.h"
+#include "server/core/transfer/map_exporter.h"
+#include "server/core/transfer/map_importer.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
 #include "storage/sqlite_map_store.h"
+#include "tests/common/synthetic_scene.h"
 
 ABSL_FLAG(int, frames, 150, "ingestion frames per run on one stream (4 streams: frames/2 each)");
 ABSL_FLAG(std::string, resolutions, "0.05,0.02", "map resolutions of the ingestion runs, metres");
@@ -191,20 +192,10 @@ Hit Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const std::vector<B
   return hit;
 }
 
-// A camera at `position` looking along `forward`, x right, y down.
-Eigen::Isometry3d LookAlong(const Eigen::Vector3d& position, Eigen::Vector3d forward) {
-  forward.normalize();
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  Eigen::Matrix3d r;
-  r << right, forward.cross(right), forward;
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = r;
-  pose.translation() = position;
-  return pose;
-}
-
 // Pose k: (kX0 + 5 k, 0, 1.2), looking at the wall (+y) and 15 degrees down.
-Eigen::Isometry3d PoseOf(int k) { return LookAlong({kX0 + kStep * k, 0, 1.2}, {0, 1, -0.27}); }
+Eigen::Isometry3d PoseOf(int k) {
+  return testing::LookingAlong({kX0 + kStep * k, 0, 1.2}, {0, 1, -0.27});
+}
 
 // RGB textures (the opencv-doc photographs), or procedural ones when they are missing.
 std::vector<cv::Mat> LoadTextures(const std::string& dir) {

@@ -55,8 +55,8 @@
 #include "bench/ycbv_frames.h"
 #include "client/frame_stream.h"
 #include "client/map_client.h"
-#include "server/malloc_tuning.h"
-#include "server/server.h"
+#include "server/app/malloc_tuning.h"
+#include "server/app/server.h"
 
 ABSL_FLAG(std::string, ycbv, SKIMAP_BENCH_YCBV_DIR, "the ycbv-0000 BOP dataset root");
 ABSL_FLAG(int, frames, 300, "frames per stream in runs 2 and 3");

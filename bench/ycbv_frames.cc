@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "client/dataset_frames.h"
-#include "server/maps/frame_decode.h"
+#include "client/cli/dataset_frames.h"
+#include "server/core/maps/frame_decode.h"
 
 namespace skimap::bench {
 namespace {

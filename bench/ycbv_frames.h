@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "perception/image_codec.h"
+#include "codec/image_codec.h"
 #include "perception/rgbd_frame.h"
 #include "skimap/v1/frames.pb.h"
 

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "perception/rvl_codec.h"
-#include "perception/zstd_frame.h"
+#include "codec/rvl_codec.h"
+#include "codec/zstd_frame.h"
 
 namespace skimap::client {
 

@@ -4,8 +4,8 @@
 
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
+#include "codec/zstd_frame.h"
 #include "grpc/health/v1/health.grpc.pb.h"
-#include "perception/zstd_frame.h"
 
 namespace skimap::client {
 

@@ -17,9 +17,9 @@
 #include <cstddef>
 
 #include "absl/status/status.h"
+#include "base/thread_pool.h"
 #include "perception/rgbd_frame.h"
 #include "skimap/grid.h"
-#include "skimap/thread_pool.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
 

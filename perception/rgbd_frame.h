@@ -12,7 +12,7 @@
 
 #include "Eigen/Geometry"
 #include "absl/status/status.h"
-#include "perception/image_codec.h"
+#include "codec/image_codec.h"
 
 namespace skimap::perception {
 

@@ -16,7 +16,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 
 namespace skimap {
 
@@ -43,8 +43,8 @@ struct Instance {
   float spread_r = 0;  // RMS angle of their rotations to q, radians
   float fit = 0;       // agreement with the map's surface and colour, 0..1
   // View consistency at the pose, over the map's keyframes when the instance was last
-  // updated (server/maps/view_keyframes.h): its surface points that agreed with a frame's
-  // depth, and those in front of it (space the camera saw through).
+  // updated (server/core/recognition/view_keyframes.h): its surface points that agreed with a
+  // frame's depth, and those in front of it (space the camera saw through).
   uint32_t view_agree = 0, view_conflict = 0;
   friend bool operator==(const Instance&, const Instance&) = default;
 };

@@ -13,7 +13,7 @@
 #include <utility>
 
 #include "absl/container/inlined_vector.h"
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 
 namespace skimap {
 

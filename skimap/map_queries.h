@@ -19,8 +19,8 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "base/thread_pool.h"
 #include "skimap/skimap.h"
-#include "skimap/thread_pool.h"
 
 namespace skimap {
 

@@ -30,8 +30,8 @@
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/status/statusor.h"
+#include "base/mutex.h"
 #include "skimap/map_queries.h"
-#include "skimap/mutex.h"
 
 namespace skimap {
 

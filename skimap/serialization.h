@@ -19,7 +19,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 #include "skimap/skimap.h"
 
 namespace skimap {

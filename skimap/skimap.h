@@ -37,10 +37,10 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
+#include "base/rw_lock.h"
+#include "base/thread_pool.h"
 #include "skimap/grid.h"
-#include "skimap/rw_lock.h"
 #include "skimap/skip_list.h"
-#include "skimap/thread_pool.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
 

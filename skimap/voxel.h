@@ -15,7 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 
 namespace skimap {
 

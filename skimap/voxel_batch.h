@@ -25,9 +25,9 @@
 #include <utility>
 #include <vector>
 
+#include "base/thread_pool.h"
 #include "skimap/grid.h"
 #include "skimap/key_sort.h"
-#include "skimap/thread_pool.h"
 #include "skimap/voxel.h"
 
 namespace skimap {

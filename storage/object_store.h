@@ -1,6 +1,6 @@
 // ObjectStore: the object database in SQLite (tables in schema.cc, described in
 // docs/objects.md). Storage knows records and blobs only — no OpenCV, no forest code:
-// perception/objects/database_io.h converts an ObjectDatabase to and from these records.
+// server/core/objects/object_database_io.h converts an ObjectDatabase to and from these records.
 //
 //   auto store = ObjectStore::Open("/var/lib/skimap/skimap.db");   // creates + migrates
 //   RETURN_IF_ERROR((*store)->Save(records));    // replaces the whole object database

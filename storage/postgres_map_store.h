@@ -32,7 +32,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/time/time.h"
-#include "skimap/mutex.h"
+#include "base/mutex.h"
 #include "storage/lease_store.h"
 #include "storage/map_store.h"
 #include "storage/postgres.h"

@@ -15,8 +15,8 @@
 
 #include <cstdint>
 
+#include "base/encoding.h"
 #include "perception/objects/descriptors.h"
-#include "skimap/encoding.h"
 #include "skimap/voxel.h"
 
 namespace skimap::objects {

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 
 namespace skimap::objects {
 

@@ -7,7 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
-#include "perception/echo.h"
+#include "base/echo.h"
 
 namespace skimap::objects {
 namespace {

@@ -4,8 +4,8 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "base/encoding.h"
 #include "perception/objects/random_forest.h"
-#include "skimap/encoding.h"
 
 namespace skimap::objects {
 namespace {

@@ -7,7 +7,7 @@
 #include "Eigen/Eigenvalues"
 #include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 #include "skimap/serialization.h"
 #include "skimap/voxel.h"
 

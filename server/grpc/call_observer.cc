@@ -7,8 +7,8 @@
 
 #include "absl/strings/match.h"
 #include "absl/time/clock.h"
-#include "server/logging/log.h"
-#include "server/logging/request_context.h"
+#include "server/core/logging/log.h"
+#include "server/core/logging/request_context.h"
 
 namespace skimap::server {
 namespace {

@@ -17,7 +17,7 @@
 #include <memory>
 #include <vector>
 
-#include "server/metrics/metrics.h"
+#include "server/core/metrics/metrics.h"
 
 namespace skimap::server {
 

@@ -2,7 +2,8 @@
 
 #include <utility>
 
-#include "server/fleet/redirect.h"
+#include "server/core/auth/access.h"
+#include "server/core/fleet/redirect.h"
 
 namespace skimap::server {
 
@@ -31,7 +32,8 @@ void FrameStreamReactor::OnReadDone(bool ok) {
     ScopedRequest scope(request_);
     const uint64_t sequence = frame->sequence();
     if (!grant_.AllowsMap(frame->map())) {
-      OnFrameDone(sequence, grant_.CheckMap(auth::Role::kWrite, frame->map()));
+      OnFrameDone(sequence,
+                  grant_.CheckMap(auth::MethodRole("MapService/StreamFrames"), frame->map()));
       return;  // OnFrameDone stepped
     }
     core_->IntegrateFrame(std::move(frame), [this, sequence](absl::StatusOr<v1::FrameAck> r) {

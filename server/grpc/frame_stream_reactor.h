@@ -18,11 +18,11 @@
 #include <memory>
 
 #include "absl/base/thread_annotations.h"
-#include "server/auth/grant.h"
+#include "base/rw_lock.h"
+#include "server/core/auth/grant.h"
+#include "server/core/logging/request_context.h"
+#include "server/core/maps/map_service.h"
 #include "server/grpc/stream_limiter.h"
-#include "server/logging/request_context.h"
-#include "server/maps/map_service.h"
-#include "skimap/rw_lock.h"
 #include "skimap/v1/frames.pb.h"
 
 namespace skimap::server {

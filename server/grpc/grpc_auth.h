@@ -18,7 +18,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
-#include "server/auth/authorizer.h"
+#include "server/core/auth/authorizer.h"
 #include "server/grpc/grpc_status.h"
 
 namespace skimap::server {

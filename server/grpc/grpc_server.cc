@@ -5,8 +5,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "server/core/auth/listen_address.h"
 #include "server/grpc/call_observer.h"
-#include "server/listen_address.h"
 
 namespace skimap::server {
 

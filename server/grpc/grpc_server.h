@@ -1,6 +1,6 @@
 // GrpcServer: the gRPC adapter of skimapd on one address: the MapService and
 // ObjectService adapters over cores it does not own, the standard health service and
-// server reflection (v1alpha in gRPC 1.51). Server (server/server.h) builds it.
+// server reflection (v1alpha in gRPC 1.51). Server (server/app/server.h) builds it.
 //
 //   absl::StatusOr<std::unique_ptr<GrpcServer>> grpc =
 //       GrpcServer::Start({.address = "127.0.0.1:0"}, &maps, &objects);
@@ -19,13 +19,13 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
-#include "server/auth/authorizer.h"
-#include "server/auth/tls_files.h"
+#include "server/core/auth/authorizer.h"
+#include "server/core/auth/tls_files.h"
+#include "server/core/maps/map_service.h"
+#include "server/core/metrics/metrics.h"
+#include "server/core/objects/object_service.h"
 #include "server/grpc/grpc_service.h"
 #include "server/grpc/object_grpc_service.h"
-#include "server/maps/map_service.h"
-#include "server/metrics/metrics.h"
-#include "server/objects/object_service.h"
 
 namespace skimap::server {
 

@@ -24,10 +24,10 @@
 #include <algorithm>
 
 #include "absl/strings/string_view.h"
-#include "server/auth/authorizer.h"
+#include "server/core/auth/authorizer.h"
+#include "server/core/common/work_queue.h"
+#include "server/core/maps/map_service.h"
 #include "server/grpc/stream_limiter.h"
-#include "server/maps/map_service.h"
-#include "server/work_queue.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
 namespace skimap::server {

@@ -13,7 +13,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "server/fleet/redirect.h"
+#include "server/core/fleet/redirect.h"
 
 namespace skimap::server {
 

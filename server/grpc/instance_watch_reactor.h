@@ -15,7 +15,7 @@
 #include <memory>
 #include <mutex>
 
-#include "server/maps/map_service.h"
+#include "server/core/maps/map_service.h"
 #include "skimap/v1/instances.pb.h"
 
 namespace skimap::server {

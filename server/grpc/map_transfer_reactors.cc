@@ -2,6 +2,7 @@
 
 #include <utility>
 
+#include "server/core/auth/access.h"
 #include "server/grpc/grpc_status.h"
 
 namespace skimap::server {
@@ -66,7 +67,8 @@ void ImportReadReactor::Step(bool ok) {
   if (importer_ == nullptr) {  // the first message (or an empty stream)
     if (grant_.Scoped()) {
       const std::string map = "maps/" + (ok ? piece_.map_id() : "");
-      if (absl::Status s = grant_.CheckMap(auth::Role::kWrite, map); !s.ok()) return End(s);
+      if (absl::Status s = grant_.CheckMap(auth::MethodRole("MapService/ImportMap"), map); !s.ok())
+        return End(s);
     }
     absl::StatusOr<std::unique_ptr<MapImporter>> importer =
         core_->ImportMap(ok ? piece_.map_id() : "");

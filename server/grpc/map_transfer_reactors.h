@@ -21,9 +21,9 @@
 #include <functional>
 #include <memory>
 
-#include "server/auth/grant.h"
-#include "server/maps/map_service.h"
-#include "server/work_queue.h"
+#include "server/core/auth/grant.h"
+#include "server/core/common/work_queue.h"
+#include "server/core/maps/map_service.h"
 #include "skimap/v1/maps.pb.h"
 
 namespace skimap::server {

@@ -4,6 +4,7 @@
 #include <mutex>
 #include <utility>
 
+#include "server/core/auth/access.h"
 #include "server/grpc/grpc_auth.h"
 #include "server/grpc/grpc_status.h"
 
@@ -99,7 +100,7 @@ absl::Status GrpcObjectService::Allow(CallbackServerContext* ctx, Role needed) c
 
 grpc::ServerReadReactor<v1::TrainObjectRequest>* GrpcObjectService::TrainObject(
     CallbackServerContext* ctx, v1::Object* response) {
-  if (absl::Status s = Allow(ctx, Role::kAdmin); !s.ok()) {
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/TrainObject")); !s.ok()) {
     return new RefusedCall<grpc::ServerReadReactor<v1::TrainObjectRequest>>(s);
   }
   return new TrainObjectReactor(core_, ctx, response);
@@ -108,28 +109,33 @@ grpc::ServerReadReactor<v1::TrainObjectRequest>* GrpcObjectService::TrainObject(
 ServerUnaryReactor* GrpcObjectService::TrainObjectFromDataset(
     CallbackServerContext* ctx, const v1::TrainObjectFromDatasetRequest* request,
     v1::Operation* response) {
-  if (absl::Status s = Allow(ctx, Role::kAdmin); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/TrainObjectFromDataset"));
+      !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, core_->TrainObjectFromDataset(*request), response);
 }
 
 ServerUnaryReactor* GrpcObjectService::ListObjects(CallbackServerContext* ctx,
                                                    const v1::ListObjectsRequest* request,
                                                    v1::ListObjectsResponse* response) {
-  if (absl::Status s = Allow(ctx, Role::kRead); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/ListObjects")); !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, core_->ListObjects(*request), response);
 }
 
 ServerUnaryReactor* GrpcObjectService::GetObject(CallbackServerContext* ctx,
                                                  const v1::GetObjectRequest* request,
                                                  v1::Object* response) {
-  if (absl::Status s = Allow(ctx, Role::kRead); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/GetObject")); !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, core_->GetObject(*request), response);
 }
 
 ServerUnaryReactor* GrpcObjectService::DeleteObject(CallbackServerContext* ctx,
                                                     const v1::DeleteObjectRequest* request,
                                                     v1::DeleteObjectResponse* response) {
-  if (absl::Status s = Allow(ctx, Role::kAdmin); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/DeleteObject")); !s.ok())
+    return Refuse(ctx, s);
   ServerUnaryReactor* reactor = ctx->DefaultReactor();
   reactor->Finish(ToGrpcStatus(core_->DeleteObject(*request)));
   return reactor;
@@ -138,35 +144,40 @@ ServerUnaryReactor* GrpcObjectService::DeleteObject(CallbackServerContext* ctx,
 ServerUnaryReactor* GrpcObjectService::BuildClassifier(CallbackServerContext* ctx,
                                                        const v1::BuildClassifierRequest* request,
                                                        v1::Operation* response) {
-  if (absl::Status s = Allow(ctx, Role::kAdmin); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/BuildClassifier")); !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, core_->BuildClassifier(*request), response);
 }
 
 ServerUnaryReactor* GrpcObjectService::GetClassifier(CallbackServerContext* ctx,
                                                      const v1::GetClassifierRequest* request,
                                                      v1::Classifier* response) {
-  if (absl::Status s = Allow(ctx, Role::kRead); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/GetClassifier")); !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, absl::StatusOr<v1::Classifier>(core_->GetClassifier()), response);
 }
 
 ServerUnaryReactor* GrpcObjectService::ClassifyImage(CallbackServerContext* ctx,
                                                      const v1::ClassifyImageRequest* request,
                                                      v1::ClassifyImageResponse* response) {
-  if (absl::Status s = Allow(ctx, Role::kRead); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/ClassifyImage")); !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, core_->ClassifyImage(*request), response);
 }
 
 ServerUnaryReactor* GrpcObjectService::GetOperation(CallbackServerContext* ctx,
                                                     const v1::GetOperationRequest* request,
                                                     v1::Operation* response) {
-  if (absl::Status s = Allow(ctx, Role::kRead); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/GetOperation")); !s.ok())
+    return Refuse(ctx, s);
   return Reply(ctx, core_->GetOperation(*request), response);
 }
 
 ServerUnaryReactor* GrpcObjectService::WaitOperation(CallbackServerContext* ctx,
                                                      const v1::WaitOperationRequest* request,
                                                      v1::Operation* response) {
-  if (absl::Status s = Allow(ctx, Role::kRead); !s.ok()) return Refuse(ctx, s);
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/WaitOperation")); !s.ok())
+    return Refuse(ctx, s);
   auto* reactor = new WaitOperationReactor(response);
   std::shared_ptr<WaitOperationReactor::State> state = reactor->state();
   core_->WaitOperation(*request, [state](absl::StatusOr<v1::Operation> op) {

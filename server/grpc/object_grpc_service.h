@@ -13,8 +13,8 @@
 
 #include <grpcpp/grpcpp.h>
 
-#include "server/auth/authorizer.h"
-#include "server/objects/object_service.h"
+#include "server/core/auth/authorizer.h"
+#include "server/core/objects/object_service.h"
 #include "skimap/v1/objects.grpc.pb.h"
 
 namespace skimap::server {

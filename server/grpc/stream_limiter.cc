@@ -3,7 +3,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "perception/echo.h"
+#include "base/echo.h"
 
 namespace skimap::server {
 

@@ -15,7 +15,7 @@
 #include "absl/base/thread_annotations.h"
 #include "absl/container/flat_hash_map.h"
 #include "absl/status/statusor.h"
-#include "skimap/mutex.h"
+#include "base/mutex.h"
 
 namespace skimap::server {
 

@@ -5,7 +5,7 @@
 #include <utility>
 
 #include "absl/time/clock.h"
-#include "server/logging/log.h"
+#include "server/core/logging/log.h"
 
 namespace skimap::server {
 

@@ -19,8 +19,8 @@
 #include <string>
 
 #include "absl/time/time.h"
-#include "server/logging/request_context.h"
-#include "server/metrics/metrics.h"
+#include "server/core/logging/request_context.h"
+#include "server/core/metrics/metrics.h"
 
 namespace httplib {
 struct Request;

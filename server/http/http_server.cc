@@ -11,12 +11,12 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "perception/echo.h"
+#include "base/echo.h"
+#include "server/core/auth/access.h"
+#include "server/core/auth/listen_address.h"
 #include "server/http/http_call.h"
 #include "server/http/http_status.h"
-#include "server/http/rest_access.h"
 #include "server/http/rest_messages.h"
-#include "server/listen_address.h"
 
 namespace skimap::server {
 namespace {
@@ -244,7 +244,7 @@ absl::StatusOr<auth::Grant> HttpServer::Authorize(
     const std::map<std::string, std::string>& path) const {
   if (options_.auth == nullptr) return auth::Grant::Everything();
   const std::optional<auth::Role> role =
-      RestRouteRole(routes_[i].method, routes_[i].path, options_.metrics_public);
+      auth::RouteRole(routes_[i].method, routes_[i].path, options_.metrics_public);
   if (!role.has_value()) return auth::Grant::Everything();
   const std::string authorization = request.get_header_value("Authorization");
   if (auto map = path.find("map"); map != path.end()) {

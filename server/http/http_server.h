@@ -33,11 +33,11 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "server/auth/authorizer.h"
-#include "server/auth/tls_files.h"
+#include "server/core/auth/authorizer.h"
+#include "server/core/auth/tls_files.h"
+#include "server/core/metrics/metrics.h"
 #include "server/http/rest_route.h"
 #include "server/http/static_files.h"
-#include "server/metrics/metrics.h"
 
 // cpp-httplib stays out of this header: <httplib.h> includes <resolv.h>, whose `_res`
 // macro breaks headers included after it (Eigen's).
@@ -57,7 +57,7 @@ class HttpServer {
     std::string address = "127.0.0.1:8080";
     bool insecure = false;
     // Bearer-token authorization (header `Authorization: Bearer <token>`) of every route
-    // but the public ones (rest_access.h); not owned, outlives the server; null = none.
+    // but the public ones (server/core/auth/access.h); not owned, outlives the server; null = none.
     // 401 (with WWW-Authenticate) for a missing or unknown token, 403 for a role too low
     // or a {map} outside the token's scope.
     const auth::Authorizer* auth = nullptr;

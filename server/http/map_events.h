@@ -26,9 +26,9 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "absl/time/time.h"
+#include "base/mutex.h"
+#include "server/core/maps/map_service.h"
 #include "server/http/rest_route.h"
-#include "server/maps/map_service.h"
-#include "skimap/mutex.h"
 
 namespace skimap::server {
 

@@ -12,7 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "perception/echo.h"
+#include "base/echo.h"
 
 namespace skimap::server {
 namespace {

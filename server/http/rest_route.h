@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "server/auth/grant.h"
+#include "server/core/auth/grant.h"
 
 namespace skimap::server {
 

@@ -9,7 +9,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
-#include "perception/echo.h"
+#include "base/echo.h"
 #include "server/http/openapi_json.h"  // generated from openapi.json (CMakeLists.txt)
 #include "server/http/raster_images.h"
 #include "server/http/rest_messages.h"

@@ -38,11 +38,11 @@
 
 #include <vector>
 
+#include "server/core/maps/map_service.h"
+#include "server/core/metrics/metrics.h"
+#include "server/core/objects/object_service.h"
 #include "server/http/map_events.h"
 #include "server/http/rest_route.h"
-#include "server/maps/map_service.h"
-#include "server/metrics/metrics.h"
-#include "server/objects/object_service.h"
 
 namespace skimap::server {
 

@@ -11,7 +11,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "perception/echo.h"
+#include "base/echo.h"
 
 namespace skimap::server {
 namespace fs = std::filesystem;

@@ -1,18 +1,24 @@
 // The token file, grants and the Authorizer (server/auth/), and the REST access table
 // against the routes skimapd really serves.
-#include "server/auth/authorizer.h"
+#include "server/core/auth/authorizer.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 #include <string>
 
 #include "absl/strings/str_cat.h"
-#include "server/auth/token_file.h"
-#include "server/http/rest_access.h"
-#include "server/server.h"
+#include "google/protobuf/descriptor.h"
+#include "server/app/server.h"
+#include "server/core/auth/access.h"
+#include "server/core/auth/token_file.h"
+#include "skimap/v1/fleet.pb.h"
+#include "skimap/v1/map_service.pb.h"
+#include "skimap/v1/objects.pb.h"
 
 namespace skimap::server::auth {
 namespace {
@@ -148,15 +154,52 @@ TEST(RestAccessTest, EveryServedRouteIsListed) {
   absl::StatusOr<std::unique_ptr<Server>> server = Server::Start(options);
   ASSERT_TRUE(server.ok()) << server.status();
   for (const RestRoute& route : (*server)->http()->routes()) {
-    EXPECT_TRUE(RestRouteListed(route.method, route.path)) << route.method << " " << route.path;
+    EXPECT_TRUE(RouteListed(route.method, route.path)) << route.method << " " << route.path;
   }
-  EXPECT_FALSE(RestRouteRole("GET", "/healthz").has_value());
-  EXPECT_EQ(RestRouteRole("DELETE", "/v1/maps/{map}"), Role::kAdmin);
-  EXPECT_EQ(RestRouteRole("POST", "/v1/maps/{map}/frames"), Role::kWrite);
-  EXPECT_EQ(RestRouteRole("GET", "/v1/maps/{map}/voxels"), Role::kRead);
-  EXPECT_EQ(RestRouteRole("GET", "/v1/unlisted"), Role::kAdmin);
-  EXPECT_FALSE(RestRouteRole("GET", "/metrics", /*metrics_public=*/true).has_value());
-  EXPECT_EQ(RestRouteRole("GET", "/metrics", /*metrics_public=*/false), Role::kRead);
+  EXPECT_FALSE(RouteRole("GET", "/healthz").has_value());
+  EXPECT_EQ(RouteRole("DELETE", "/v1/maps/{map}"), Role::kAdmin);
+  EXPECT_EQ(RouteRole("POST", "/v1/maps/{map}/frames"), Role::kWrite);
+  EXPECT_EQ(RouteRole("GET", "/v1/maps/{map}/voxels"), Role::kRead);
+  EXPECT_EQ(RouteRole("GET", "/v1/unlisted"), Role::kAdmin);
+  EXPECT_FALSE(RouteRole("GET", "/metrics", /*metrics_public=*/true).has_value());
+  EXPECT_EQ(RouteRole("GET", "/metrics", /*metrics_public=*/false), Role::kRead);
+}
+
+// The access table has exactly one entry per gRPC method of skimap.v1's services, and no
+// entry for a method that does not exist; every REST route that serves a gRPC method names
+// one of them, and no route is listed twice.
+TEST(AccessTableTest, OneEntryPerGrpcMethodAndRoute) {
+  std::set<std::string> declared;
+  for (const char* service :
+       {"skimap.v1.MapService", "skimap.v1.ObjectService", "skimap.v1.FleetService"}) {
+    const google::protobuf::ServiceDescriptor* s =
+        google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(service);
+    ASSERT_NE(s, nullptr) << service;
+    for (int i = 0; i < s->method_count(); ++i) {
+      declared.insert(absl::StrCat(s->name(), "/", s->method(i)->name()));
+    }
+  }
+  std::map<std::string, int> entries;
+  for (const MethodAccess& m : MethodTable()) ++entries[std::string(m.method)];
+  for (const std::string& method : declared) {
+    EXPECT_EQ(entries[method], 1) << method << " needs exactly one entry in the access table";
+  }
+  for (const auto& [method, count] : entries) {
+    EXPECT_TRUE(declared.count(method))
+        << method << " is in the access table but not an API method";
+  }
+  std::map<std::string, int> routes;
+  for (const RouteAccess& r : RouteTable()) {
+    EXPECT_EQ(++routes[absl::StrCat(r.http_method, " ", r.path)], 1) << r.path;
+    if (!r.serves.empty()) {
+      EXPECT_TRUE(declared.count(std::string(r.serves))) << r.path << " serves " << r.serves;
+      EXPECT_FALSE(r.role.has_value()) << r.path << ": its role is its method's";
+    }
+  }
+  EXPECT_EQ(MethodRole("MapService/CreateMap"), Role::kWrite);
+  EXPECT_EQ(MethodRole("MapService/DeleteMap"), Role::kAdmin);
+  EXPECT_EQ(MethodRole("MapService/NoSuchMethod"), Role::kAdmin);
+  EXPECT_EQ(RouteRole("POST", "/v1/maps"), MethodRole("MapService/CreateMap"));
 }
 
 }  // namespace

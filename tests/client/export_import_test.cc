@@ -17,18 +17,18 @@
 #include <tuple>
 
 #include "client/map_client.h"
-#include "server/maps/map_export.h"
-#include "server/server.h"
+#include "server/app/server.h"
+#include "server/core/transfer/map_export.h"
 #include "storage/sqlite_map_store.h"
 #include "tests/common/skimapd_process.h"
-#include "tests/server/synthetic_scene.h"
+#include "tests/common/synthetic_scene.h"
+#include "tests/common/voxel_set.h"
 
 namespace skimap::testing {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-using VoxelSet = std::set<std::tuple<double, double, double, float, uint32_t>>;
 
 // VGA frames: six of them make a journal of several 1 MiB pieces.
 const SyntheticCamera kVga{
@@ -51,19 +51,6 @@ v1::UpdatePosesRequest Moved(const std::string& map, std::initializer_list<int> 
     SetPose(moved, u->mutable_pose());
   }
   return update;
-}
-
-VoxelSet Voxels(client::MapClient& client, const std::string& map) {
-  v1::GetVoxelsRequest request;
-  request.set_map(map);
-  request.set_min_voxel_weight(0);
-  auto voxels = client.GetAllVoxels(request);
-  EXPECT_TRUE(voxels.ok()) << voxels.status();
-  VoxelSet out;
-  for (const v1::Voxel& v : voxels.value_or(std::vector<v1::Voxel>{})) {
-    out.insert({v.center().x(), v.center().y(), v.center().z(), v.weight(), v.rgb()});
-  }
-  return out;
 }
 
 std::string Grid(client::MapClient& client, const std::string& map) {

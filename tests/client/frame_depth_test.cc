@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "server/maps/frame_decode.h"
+#include "server/core/maps/frame_decode.h"
 
 namespace skimap::client {
 namespace {

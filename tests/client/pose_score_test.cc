@@ -1,5 +1,5 @@
-// client/pose_score.h: errors under symmetries, one-to-one matching, BOP's MSSD recall.
-#include "client/pose_score.h"
+// client/cli/pose_score.h: errors under symmetries, one-to-one matching, BOP's MSSD recall.
+#include "client/cli/pose_score.h"
 
 #include <gtest/gtest.h>
 

@@ -17,7 +17,7 @@
 #include "client/map_client.h"
 #include "tests/common/free_port.h"
 #include "tests/common/spawn.h"
-#include "tests/server/synthetic_scene.h"
+#include "tests/common/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

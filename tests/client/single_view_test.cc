@@ -1,6 +1,6 @@
-// client/single_view.h: PnP RANSAC from 2D-3D matches recovers a known pose among
+// client/cli/single_view.h: PnP RANSAC from 2D-3D matches recovers a known pose among
 // outliers, refuses too few inliers, and a scene keeps each object's best view.
-#include "client/single_view.h"
+#include "client/cli/single_view.h"
 
 #include <gtest/gtest.h>
 

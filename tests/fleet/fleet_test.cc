@@ -2,7 +2,7 @@
 // Debian's package): failover after kill -9 with every acknowledged frame kept, fencing of
 // a paused owner, redirects, ListMaps owners and ListNodes.
 //
-// Frames are depth-only synthetic views (tests/server/synthetic_scene.h), so voxel weights
+// Frames are depth-only synthetic views (tests/common/synthetic_scene.h), so voxel weights
 // are integer counts and a map is compared voxel by voxel against a rebuild of the same
 // frames in a fresh map, as tests/hostile/crash_test.cc does.
 #include <gtest/gtest.h>
@@ -21,8 +21,8 @@
 #include "tests/common/fleet_streamer.h"
 #include "tests/common/postgres_server.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/common/synthetic_scene.h"
 #include "tests/common/voxel_set.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {
@@ -44,16 +44,6 @@ constexpr int kLeaseTtlMs = 1500;
 // (2026-11-24, 2 cores under load; fleet_bench: median 2.1 s over 20 kills at a 2000 ms
 // lease); the floor leaves 4 s of margin over the lease for loaded CI machines.
 const absl::Duration kFailoverLimit = absl::Milliseconds(kLeaseTtlMs + 4000);
-
-Eigen::Isometry3d View(uint64_t i) {
-  const double angle = 0.37 * double(i);
-  const double radius = 1.6 + 0.3 * std::sin(0.13 * double(i));
-  const double height = 1.1 + 0.4 * std::sin(0.23 * double(i) + 1.0);
-  const Eigen::Vector3d target(0.5, 0.0, 0.25);
-  const Eigen::Vector3d position(target.x() + radius * std::cos(angle),
-                                 target.y() + radius * std::sin(angle), height);
-  return LookingAlong(position, target - position);
-}
 
 v1::CreateMapRequest CreateRequest(const std::string& id) {
   v1::CreateMapRequest request;
@@ -87,7 +77,8 @@ class FleetTest : public ::testing::Test {
     ASSERT_TRUE(client->CreateMap(CreateRequest(rebuilt_id)).ok());
     const std::string rebuilt = "maps/" + rebuilt_id;
     auto stream = client->OpenFrameStream({.window = 4}, rebuilt);
-    for (uint64_t s : sequences) ASSERT_TRUE(stream->Send(MakeFrame(rebuilt, s, View(s))).ok());
+    for (uint64_t s : sequences)
+      ASSERT_TRUE(stream->Send(MakeFrame(rebuilt, s, OrbitView(s))).ok());
     auto acks = stream->Finish();
     ASSERT_TRUE(acks.ok()) << acks.status();
     for (const v1::FrameAck& a : *acks) ASSERT_EQ(a.code(), 0) << a.message();
@@ -126,7 +117,7 @@ TEST_F(FleetTest, KillingAnOwnerMidStreamLosesNoAcknowledgedFrame) {
   for (int i = 0; i < kMaps; ++i) {
     const std::string map = absl::StrCat("maps/m", i);
     streamers.push_back(std::make_unique<FleetStreamer>(
-        addresses_, map, [map](uint64_t s) { return MakeFrame(map, s, View(s)); }));
+        addresses_, map, [map](uint64_t s) { return MakeFrame(map, s, OrbitView(s)); }));
     streamers.back()->StartAt(i + 1);
     streamers.back()->OnAck([&, i](uint64_t s, absl::Duration) {
       std::lock_guard<std::mutex> lock(mu);
@@ -224,7 +215,7 @@ TEST_F(FleetTest, APausedOwnerWhoseLeaseExpiredCannotCommitAfterResuming) {
   const std::string map = "maps/p";
   std::vector<uint64_t> in_map;  // journal order
   for (uint64_t s = 0; s < 5; ++s) {
-    auto ack = to_a->IntegrateFrame(MakeFrame(map, s, View(s)));
+    auto ack = to_a->IntegrateFrame(MakeFrame(map, s, OrbitView(s)));
     ASSERT_TRUE(ack.ok()) << ack.status();
     in_map.push_back(s);
   }
@@ -237,7 +228,8 @@ TEST_F(FleetTest, APausedOwnerWhoseLeaseExpiredCannotCommitAfterResuming) {
                                          std::lock_guard<std::mutex> lock(mu);
                                          late_acks.push_back(ack);
                                        }});
-  for (uint64_t s = 100; s < 104; ++s) ASSERT_TRUE(stream->Send(MakeFrame(map, s, View(s))).ok());
+  for (uint64_t s = 100; s < 104; ++s)
+    ASSERT_TRUE(stream->Send(MakeFrame(map, s, OrbitView(s))).ok());
   a.Signal(SIGSTOP);
   absl::SleepFor(absl::Milliseconds(kLeaseTtlMs + 500));  // a's lease runs out
   // b takes the map over on the first request for it and writes.
@@ -246,7 +238,7 @@ TEST_F(FleetTest, APausedOwnerWhoseLeaseExpiredCannotCommitAfterResuming) {
   std::vector<uint64_t> by_b;
   uint64_t s = 5;
   while (absl::Now() < deadline && s < 10) {
-    taken = to_b->IntegrateFrame(MakeFrame(map, s, View(s)));
+    taken = to_b->IntegrateFrame(MakeFrame(map, s, OrbitView(s)));
     if (taken.ok()) {
       by_b.push_back(s++);
     } else {
@@ -285,7 +277,7 @@ TEST_F(FleetTest, APausedOwnerWhoseLeaseExpiredCannotCommitAfterResuming) {
   EXPECT_EQ(info->stats().journal_position(), in_map.size());
   ASSERT_NO_FATAL_FAILURE(ExpectEqualToRebuild(map, in_map, "p-rebuilt"));
   // b goes on writing; a restarted view of the store agrees (a fresh node loads it).
-  EXPECT_TRUE(to_b->IntegrateFrame(MakeFrame(map, 10, View(10))).ok());
+  EXPECT_TRUE(to_b->IntegrateFrame(MakeFrame(map, 10, OrbitView(10))).ok());
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
-// Fuzz target: snapshot chunk blobs (server/maps/chunk_codec.h) as a map load reads them:
-// voxel chunks of every voxel type and frame-index chunks (server/maps/frame_index.h).
+// Fuzz target: snapshot chunk blobs (server/core/transfer/chunk_codec.h) as a map load reads them:
+// voxel chunks of every voxel type and frame-index chunks (server/core/maps/frame_index.h).
 //
 // Input: u8 control (low bits: 0-5 a voxel type (voxel_types.h), 6 the frame index;
 // bit 7: recompute the trailing CRC first), then the blob. A voxel chunk that decodes must
@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "server/maps/chunk_codec.h"
-#include "server/maps/frame_index.h"
+#include "server/core/maps/frame_index.h"
+#include "server/core/transfer/chunk_codec.h"
 #include "tests/fuzz/fuzz_input.h"
 #include "tests/fuzz/voxel_types.h"
 

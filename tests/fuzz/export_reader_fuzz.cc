@@ -1,4 +1,4 @@
-// Fuzz target: the export file reader (server/maps/map_export.h), fed in pieces.
+// Fuzz target: the export file reader (server/core/transfer/map_export.h), fed in pieces.
 //
 // Input: u8 flags (bit 0: recompute every checksum first, so mutations reach the record
 // parsers behind the CRCs), u8 piece seed (how the file is split into Feed calls), then
@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <string>
 
-#include "server/maps/map_export.h"
+#include "server/core/transfer/map_export.h"
 #include "tests/fuzz/fuzz_input.h"
 
 namespace skimap::fuzz {

@@ -1,4 +1,4 @@
-// Fuzz target: server/maps/frame_decode.h, the validation and decoding of an API frame
+// Fuzz target: server/core/maps/frame_decode.h, the validation and decoding of an API frame
 // (intrinsics, pose, depth scale, every depth and colour encoding).
 //
 // Input: a serialized skimap.v1.Frame. A frame that decodes must satisfy what the rest of
@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "server/maps/frame_decode.h"
+#include "server/core/maps/frame_decode.h"
 #include "tests/fuzz/fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -15,7 +15,7 @@
 #include <string>
 #include <string_view>
 
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 
 namespace skimap::fuzz {
 

@@ -1,4 +1,4 @@
-// Fuzz target: every depth and colour codec of perception/image_codec.h and the PNG / JPEG
+// Fuzz target: every depth and colour codec of codec/image_codec.h and the PNG / JPEG
 // header reader (image_header.h).
 //
 // Input: u8 codec (0-2 depth raw / PNG16 / zstd, 3-5 colour raw / PNG / JPEG, 6-7 the PNG /
@@ -8,8 +8,8 @@
 #include <cstdint>
 #include <string>
 
-#include "perception/image_codec.h"
-#include "perception/image_header.h"
+#include "codec/image_codec.h"
+#include "codec/image_header.h"
 #include "tests/fuzz/fuzz_input.h"
 
 namespace skimap::fuzz {

@@ -9,14 +9,14 @@
 #include <fstream>
 #include <string>
 
-#include "perception/image_codec.h"
-#include "perception/objects/database_io.h"
+#include "codec/image_codec.h"
 #include "perception/objects/features.h"
 #include "perception/objects/random_forest.h"
+#include "server/core/maps/frame_index.h"
+#include "server/core/objects/object_database_io.h"
+#include "server/core/transfer/chunk_codec.h"
+#include "server/core/transfer/map_export.h"
 #include "server/http/rest_messages.h"
-#include "server/maps/chunk_codec.h"
-#include "server/maps/frame_index.h"
-#include "server/maps/map_export.h"
 #include "skimap/hypotheses_voxel.h"
 #include "skimap/label_voxel.h"
 #include "skimap/serialization.h"

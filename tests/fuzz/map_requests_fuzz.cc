@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "server/maps/map_service.h"
+#include "server/core/maps/map_service.h"
 #include "tests/fuzz/fuzz_input.h"
 
 namespace skimap::fuzz {

@@ -1,4 +1,4 @@
-// Fuzz target: the object database loader (perception/objects/database_io.h:
+// Fuzz target: the object database loader (server/core/objects/object_database_io.h:
 // FromStoredRecords, which also parses the training parameters and the forest blob and
 // validates everything through ObjectDatabase::Create), on records as the SQLite store
 // hands them over.
@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "perception/objects/database_io.h"
 #include "perception/objects/features.h"
+#include "server/core/objects/object_database_io.h"
 #include "tests/fuzz/fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

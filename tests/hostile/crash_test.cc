@@ -40,8 +40,8 @@
 #include "absl/strings/str_join.h"
 #include "client/map_client.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/common/synthetic_scene.h"
 #include "tests/common/voxel_set.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {
@@ -53,18 +53,6 @@ uint64_t EnvNumber(const char* name, uint64_t fallback) {
   const char* value = std::getenv(name);
   if (value == nullptr || *value == '\0') return fallback;
   return std::strtoull(value, nullptr, 10);
-}
-
-// Frame i's camera: on an orbit around the box whose angle, radius and height never repeat,
-// always looking at the box (so every frame hits the box and the floor).
-Eigen::Isometry3d OrbitView(uint64_t i) {
-  const double angle = 0.37 * double(i);
-  const double radius = 1.6 + 0.3 * std::sin(0.13 * double(i));
-  const double height = 1.1 + 0.4 * std::sin(0.23 * double(i) + 1.0);
-  const Eigen::Vector3d target(0.5, 0.0, 0.25);
-  const Eigen::Vector3d position(target.x() + radius * std::cos(angle),
-                                 target.y() + radius * std::sin(angle), height);
-  return LookingAlong(position, target - position);
 }
 
 v1::Frame Frame(const std::string& map, uint64_t sequence) {

@@ -13,7 +13,7 @@
 
 #include "client/map_client.h"
 #include "tests/common/skimapd_process.h"
-#include "tests/server/synthetic_scene.h"
+#include "tests/common/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

@@ -12,8 +12,8 @@
 #include "client/map_client.h"
 #include "storage/sqlite.h"
 #include "tests/common/skimapd_process.h"
+#include "tests/common/synthetic_scene.h"
 #include "tests/common/voxel_set.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

@@ -152,6 +152,12 @@ TEST_F(ReflectionTest, ListsAndDescribesEveryServiceSoAGenericClientCanCallThem)
        {"CreateMap", "GetMap", "StreamFrames", "GetOccupancyGrid", "RadiusSearch"}) {
     EXPECT_NE(maps->FindMethodByName(rpc), nullptr) << rpc;
   }
+  // The health service is described too (grpcurl's `describe grpc.health.v1.Health`).
+  LoadSymbol("grpc.health.v1.Health");
+  const pb::ServiceDescriptor* health = pool_.FindServiceByName("grpc.health.v1.Health");
+  ASSERT_NE(health, nullptr);
+  EXPECT_NE(health->FindMethodByName("Check"), nullptr);
+  EXPECT_NE(health->FindMethodByName("Watch"), nullptr);
 
   // CreateMap and GetMap with messages built from the fetched descriptors only.
   pb::DynamicMessageFactory factory(&pool_);

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <string>
 
-#include "server/listen_address.h"
+#include "server/core/auth/listen_address.h"
 #include "tests/common/skimapd_process.h"
 
 namespace skimap::testing {

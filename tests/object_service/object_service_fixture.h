@@ -12,10 +12,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "client/cli/training_frames.h"
 #include "client/object_client.h"
-#include "client/training_frames.h"
 #include "dataset/reader.h"
-#include "server/server.h"
+#include "server/app/server.h"
 #include "tests/objects/sim_data.h"
 
 namespace skimap::testing {

@@ -9,7 +9,7 @@
 #include <map>
 #include <set>
 
-#include "server/objects/object_codec.h"
+#include "server/core/objects/object_codec.h"
 #include "tests/object_service/object_service_fixture.h"
 
 namespace skimap::testing {

@@ -11,10 +11,10 @@
 #include <functional>
 #include <limits>
 
-#include "perception/objects/database_io.h"
+#include "base/encoding.h"
 #include "perception/objects/object_database.h"
 #include "perception/objects/random_forest.h"
-#include "skimap/encoding.h"
+#include "server/core/objects/object_database_io.h"
 #include "tests/objects/small_database.h"
 
 namespace skimap::objects {

@@ -10,9 +10,9 @@
 
 #include "absl/strings/str_format.h"
 #include "dataset/reader.h"
-#include "perception/objects/database_io.h"
 #include "perception/objects/evaluation.h"
 #include "perception/objects/training.h"
+#include "server/core/objects/object_database_io.h"
 #include "skimap/serialization.h"
 #include "tests/objects/sim_data.h"
 

@@ -5,7 +5,7 @@
 #include <random>
 
 #include "absl/strings/str_cat.h"
-#include "perception/objects/database_io.h"
+#include "server/core/objects/object_database_io.h"
 #include "skimap/serialization.h"
 #include "skimap/skimap.h"
 #include "skimap/voxel.h"

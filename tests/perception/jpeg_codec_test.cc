@@ -1,4 +1,4 @@
-// JPEG colour decoding (perception/image_codec.h, libjpeg-turbo's TurboJPEG API): on the
+// JPEG colour decoding (codec/image_codec.h, libjpeg-turbo's TurboJPEG API): on the
 // real ycbv-0000 colour images it gives exactly the pixels of OpenCV's decoder (the
 // reference it replaced), greyscale JPEGs come out as RGB, and damaged images are refused
 // with an error naming `color` (or decode as libjpeg recovers them), never a crash.
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "perception/image_codec.h"
+#include "codec/image_codec.h"
 
 namespace skimap::perception {
 namespace {

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cstdlib>
 
+#include "base/thread_pool.h"
+#include "codec/image_codec.h"
 #include "perception/frame_integrator.h"
-#include "perception/image_codec.h"
 #include "perception/rgbd_frame.h"
 #include "skimap/skimap.h"
-#include "skimap/thread_pool.h"
 
 namespace skimap::perception {
 namespace {

@@ -1,7 +1,7 @@
-// RVL depth codec (perception/rvl_codec.h): exact round trips on the real ycbv-0000 depth
+// RVL depth codec (codec/rvl_codec.h): exact round trips on the real ycbv-0000 depth
 // images and on edge cases, and the decoder's refusals of anything the encoder would not
 // write.
-#include "perception/rvl_codec.h"
+#include "codec/rvl_codec.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <sstream>
 #include <vector>
 
-#include "perception/image_codec.h"
+#include "codec/image_codec.h"
 
 namespace skimap::perception {
 namespace {

@@ -1,7 +1,7 @@
-// perception/zstd_frame.h: frames round-trip at every size; a frame that claims another
+// codec/zstd_frame.h: frames round-trip at every size; a frame that claims another
 // size, no size, or that is cut short is refused with a message and writes nothing past
 // the buffer.
-#include "perception/zstd_frame.h"
+#include "codec/zstd_frame.h"
 
 #include <gtest/gtest.h>
 

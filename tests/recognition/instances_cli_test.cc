@@ -1,4 +1,4 @@
-// `skimap instances` and `skimap stream --recognition` (client/instances_command.h), the
+// `skimap instances` and `skimap stream --recognition` (client/cli/instances_command.h), the
 // real CLI binary against the recognition world's server (recognition_fixture.h).
 #include <gtest/gtest.h>
 

@@ -12,10 +12,10 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
-#include "client/dataset_frames.h"
+#include "client/cli/dataset_frames.h"
+#include "client/cli/training_frames.h"
 #include "client/frame_stream.h"
 #include "client/object_client.h"
-#include "client/training_frames.h"
 #include "dataset/reader.h"
 #include "sim/generator.h"
 

@@ -14,7 +14,7 @@
 
 #include "Eigen/Geometry"
 #include "client/map_client.h"
-#include "server/server.h"
+#include "server/app/server.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
 namespace skimap::testing {

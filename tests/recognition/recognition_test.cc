@@ -13,7 +13,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
-#include "client/dataset_frames.h"
+#include "client/cli/dataset_frames.h"
 #include "dataset/reader.h"
 #include "tests/recognition/recognition_fixture.h"
 

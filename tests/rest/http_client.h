@@ -1,6 +1,6 @@
 // cpp-httplib's client for the REST tests. <httplib.h> includes <resolv.h>, whose `_res`
 // macro (`#define _res (*__res_state())`) breaks Eigen's headers when they come after it
-// in a translation unit (server/server.h includes them); the tests use neither resolver
+// in a translation unit (server/app/server.h includes them); the tests use neither resolver
 // state nor that name, so it is undefined here. Include this instead of <httplib.h>.
 #ifndef TESTS_REST_HTTP_CLIENT_H_
 #define TESTS_REST_HTTP_CLIENT_H_

@@ -15,7 +15,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "client/dataset_frames.h"
+#include "client/cli/dataset_frames.h"
 #include "tests/rest/rest_fixture.h"
 
 namespace skimap::testing {

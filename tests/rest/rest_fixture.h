@@ -1,4 +1,4 @@
-// REST tests: an in-process Server (server/server.h) with its gRPC and HTTP adapters on
+// REST tests: an in-process Server (server/app/server.h) with its gRPC and HTTP adapters on
 // free loopback ports, and a real HTTP client (httplib::Client) talking to it over TCP.
 //
 //   RestServer s({.cors_origins = {"https://viewer.example"}});
@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "server/server.h"
+#include "server/app/server.h"
 #include "tests/rest/http_client.h"
 #include "tests/rest/rest_json.h"
 

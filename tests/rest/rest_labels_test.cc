@@ -14,7 +14,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "client/dataset_frames.h"
+#include "client/cli/dataset_frames.h"
 #include "client/map_client.h"
 #include "client/object_client.h"
 #include "dataset/reader.h"

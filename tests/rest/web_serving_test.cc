@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
-#include "server/server.h"
+#include "server/app/server.h"
 #include "tests/rest/http_client.h"
 #include "tests/rest/rest_json.h"
 

@@ -4,8 +4,8 @@
 // observation: unknown without carving, free with it.
 #include <cmath>
 
+#include "tests/common/synthetic_scene.h"
 #include "tests/server/server_fixture.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

@@ -1,13 +1,13 @@
-// Snapshot chunk blobs (server/maps/chunk_codec.h) and frame-index chunks
-// (server/maps/frame_index.h): exact round trips, and every corruption is an error, never
+// Snapshot chunk blobs (server/core/transfer/chunk_codec.h) and frame-index chunks
+// (server/core/maps/frame_index.h): exact round trips, and every corruption is an error, never
 // a crash or a silently different map.
-#include "server/maps/chunk_codec.h"
+#include "server/core/transfer/chunk_codec.h"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "server/maps/frame_index.h"
+#include "server/core/maps/frame_index.h"
 
 namespace skimap::server {
 namespace {

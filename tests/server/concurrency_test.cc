@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "server/maps/map_service.h"
+#include "server/core/maps/map_service.h"
 #include "storage/sqlite_map_store.h"
-#include "tests/server/synthetic_scene.h"
+#include "tests/common/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

@@ -11,28 +11,15 @@
 
 #include "storage/fault_injecting_map_store.h"
 #include "storage/sqlite_map_store.h"
+#include "tests/common/synthetic_scene.h"
+#include "tests/common/voxel_set.h"
 #include "tests/server/server_fixture.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-using VoxelSet = std::set<std::tuple<double, double, double, float, uint32_t>>;
-
-VoxelSet Voxels(client::MapClient& client, const std::string& map) {
-  v1::GetVoxelsRequest request;
-  request.set_map(map);
-  request.set_min_voxel_weight(0);
-  auto voxels = client.GetAllVoxels(request);
-  EXPECT_TRUE(voxels.ok()) << voxels.status();
-  VoxelSet out;
-  for (const v1::Voxel& v : voxels.value_or(std::vector<v1::Voxel>{})) {
-    out.insert({v.center().x(), v.center().y(), v.center().z(), v.weight(), v.rgb()});
-  }
-  return out;
-}
 
 Eigen::Isometry3d View(int i) {
   Eigen::Isometry3d pose = DefaultView();

@@ -5,9 +5,9 @@
 #include <limits>
 #include <map>
 
-#include "perception/zstd_frame.h"
+#include "codec/zstd_frame.h"
+#include "tests/common/synthetic_scene.h"
 #include "tests/server/server_fixture.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

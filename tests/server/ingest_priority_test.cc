@@ -14,10 +14,10 @@
 #include <string>
 #include <thread>
 
-#include "server/maps/map_service.h"
-#include "server/maps/recognition_queue.h"
-#include "server/work_queue.h"
-#include "skimap/thread_pool.h"
+#include "base/thread_pool.h"
+#include "server/core/common/work_queue.h"
+#include "server/core/maps/map_service.h"
+#include "server/core/recognition/recognition_queue.h"
 
 namespace skimap::server {
 namespace {

@@ -1,7 +1,7 @@
-// ReconcileInstances (server/maps/instance_reconciler.h) on a hand-built MapState: labels,
-// hypotheses and instances placed exactly, an object database of one small object (no
+// ReconcileInstances (server/core/recognition/instance_reconciler.h) on a hand-built MapState:
+// labels, hypotheses and instances placed exactly, an object database of one small object (no
 // training), so each rule of the reconciliation can be checked by itself.
-#include "server/maps/instance_reconciler.h"
+#include "server/core/recognition/instance_reconciler.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <span>
 #include <vector>
 
-#include "perception/image_codec.h"
+#include "codec/image_codec.h"
 #include "tests/objects/small_database.h"
 
 namespace skimap::server {

@@ -1,7 +1,7 @@
-// The export file format (server/maps/map_export.h): every record type round trips, any
+// The export file format (server/core/transfer/map_export.h): every record type round trips, any
 // split of the bytes reads the same, and corruption or truncation anywhere is an error
 // naming where, never a crash.
-#include "server/maps/map_export.h"
+#include "server/core/transfer/map_export.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "skimap/encoding.h"
+#include "base/encoding.h"
 
 namespace skimap::server {
 namespace {

@@ -3,8 +3,8 @@
 
 #include <cmath>
 
+#include "tests/common/synthetic_scene.h"
 #include "tests/server/server_fixture.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

@@ -1,6 +1,6 @@
-// RecognitionQueue (server/maps/recognition_queue.h): the two steps of each job, their
+// RecognitionQueue (server/core/recognition/recognition_queue.h): the two steps of each job, their
 // overlap across jobs, the policies, Flush and the done calls on destruction.
-#include "server/maps/recognition_queue.h"
+#include "server/core/recognition/recognition_queue.h"
 
 #include <gtest/gtest.h>
 

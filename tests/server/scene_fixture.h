@@ -15,7 +15,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
-#include "server/server.h"
+#include "server/app/server.h"
 
 namespace skimap::testing {
 

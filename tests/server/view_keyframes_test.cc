@@ -1,6 +1,6 @@
 // ViewKeyframes: which recognised frames a map keeps as vantage points, their half
 // resolution depth, and their poses following UpdatePoses.
-#include "server/maps/view_keyframes.h"
+#include "server/core/recognition/view_keyframes.h"
 
 #include <gtest/gtest.h>
 

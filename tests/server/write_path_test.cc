@@ -4,8 +4,8 @@
 #include <future>
 #include <thread>
 
+#include "tests/common/synthetic_scene.h"
 #include "tests/server/server_fixture.h"
-#include "tests/server/synthetic_scene.h"
 
 namespace skimap::testing {
 namespace {

@@ -1,0 +1,215 @@
+#include "client/cli/objects_command.h"
+
+#include <cstdio>
+#include <filesystem>
+
+#include "absl/flags/flag.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "client/cli/training_frames.h"
+#include "client/object_client.h"
+#include "dataset/reader.h"
+
+ABSL_FLAG(int, object, 0, "objects train: train only this obj_id (0 = every train/ object)");
+ABSL_FLAG(std::string, detector, "", "objects train: ORB, SIFT, AKAZE or BRISK (default ORB)");
+ABSL_FLAG(std::string, name, "", "objects train: display name (default: objects.json)");
+ABSL_FLAG(int, frame_stride, 1, "objects train: use every n-th training frame");
+ABSL_FLAG(double, object_resolution, 0, "objects train: descriptor voxel in metres (0 = 0.01)");
+ABSL_FLAG(bool, on_server, false, "objects train: the server reads DATASET from its disk");
+ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
+ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
+ABSL_FLAG(int, max_depth, 0, "objects build: forest depth (0 = stored/24)");
+
+namespace skimap::client {
+namespace {
+namespace fs = std::filesystem;
+
+int Fail(const absl::Status& s) {
+  std::fprintf(stderr, "skimap: %s\n", s.ToString().c_str());
+  return 1;
+}
+
+int Exit(const absl::Status& s) { return s.ok() ? 0 : Fail(s); }
+
+void PrintObject(const v1::Object& o) {
+  std::printf("%-14s %-20s frames %4llu  descriptors %7llu  voxels %6llu  centroids %7llu  %s%s\n",
+              o.name().c_str(), o.display_name().empty() ? "-" : o.display_name().c_str(),
+              (unsigned long long)o.frames(), (unsigned long long)o.descriptors(),
+              (unsigned long long)o.voxels(), (unsigned long long)o.centroids(),
+              o.params().detector().c_str(), o.in_classifier() ? "  [classifier]" : "");
+}
+
+void PrintProgress(const v1::Operation& op) {
+  std::fprintf(stderr, "\r%s: %-10s %lld/%lld  %3.0f%%  %.1f s   ", op.name().c_str(),
+               op.progress().stage().c_str(), (long long)op.progress().done(),
+               (long long)op.progress().total(), 100 * op.progress().fraction(),
+               op.elapsed().seconds() + op.elapsed().nanos() * 1e-9);
+  if (op.done()) std::fprintf(stderr, "\n");
+}
+
+v1::TrainingParams ParamsFromFlags() {
+  v1::TrainingParams p;
+  p.set_detector(absl::GetFlag(FLAGS_detector));
+  if (absl::GetFlag(FLAGS_object_resolution) > 0) {
+    p.set_resolution(absl::GetFlag(FLAGS_object_resolution));
+  }
+  return p;
+}
+
+absl::StatusOr<v1::Object> StreamObject(ObjectClient& client, const TrainingObject& object) {
+  absl::StatusOr<dataset::Sequence> seq = dataset::LoadBopScene(object.scene_dir);
+  if (!seq.ok()) return seq.status();
+  v1::TrainObjectRequest header;
+  header.set_obj_id(object.obj_id);
+  header.set_display_name(object.name);
+  *header.mutable_params() = ParamsFromFlags();
+  const int stride = std::max(1, absl::GetFlag(FLAGS_frame_stride));
+  size_t next = 0;
+  int sent = 0;
+  return client.TrainObject(header, [&]() -> absl::StatusOr<std::optional<v1::TrainingFrame>> {
+    while (next < seq->frames.size()) {
+      const dataset::Frame& f = seq->frames[next++];
+      if (f.id % stride != 0) continue;
+      absl::StatusOr<std::optional<v1::TrainingFrame>> frame = ToTrainingFrame(f, object.obj_id);
+      if (!frame.ok() || !frame->has_value()) {
+        if (!frame.ok()) return frame.status();
+        continue;
+      }
+      std::fprintf(stderr, "\rtraining objects/%d: frame %d sent  ", object.obj_id, ++sent);
+      return frame;
+    }
+    std::fprintf(stderr, "\rtraining objects/%d: %d frames sent, mean shift...\n", object.obj_id,
+                 sent);
+    return std::optional<v1::TrainingFrame>();
+  });
+}
+
+// keep_trained: an object the server already has is kept (and said so), not retrained.
+absl::Status Train(ObjectClient& client, const std::string& dataset, bool keep_trained) {
+  const int only = absl::GetFlag(FLAGS_object);
+  if (absl::GetFlag(FLAGS_on_server)) {
+    if (only <= 0) return absl::InvalidArgumentError("--on_server needs --object=ID");
+    v1::TrainObjectFromDatasetRequest request;
+    request.set_dataset_path(fs::absolute(dataset).string());
+    request.set_obj_id(only);
+    request.set_display_name(absl::GetFlag(FLAGS_name));
+    *request.mutable_params() = ParamsFromFlags();
+    request.set_frame_stride(std::max(1, absl::GetFlag(FLAGS_frame_stride)));
+    absl::StatusOr<v1::Operation> op = client.TrainObjectFromDataset(request);
+    if (!op.ok()) return op.status();
+    op = client.WaitDone(op->name(), PrintProgress);
+    if (!op.ok()) return op.status();
+    PrintObject(op->object());
+    return absl::OkStatus();
+  }
+  std::vector<TrainingObject> objects;
+  if (fs::exists(fs::path(dataset) / "scene_gt.json")) {
+    if (only <= 0) return absl::InvalidArgumentError("a scene folder needs --object=ID");
+    objects.push_back({only, dataset, ""});
+  } else {
+    absl::StatusOr<std::vector<TrainingObject>> all = ListTrainingObjects(dataset);
+    if (!all.ok()) return all.status();
+    for (const TrainingObject& o : *all) {
+      if (only <= 0 || o.obj_id == only) objects.push_back(o);
+    }
+    if (objects.empty()) {
+      return absl::NotFoundError(absl::StrCat(dataset, ": no train/ folder for object ", only));
+    }
+  }
+  for (TrainingObject& o : objects) {
+    if (keep_trained) {
+      const std::string name = absl::StrCat("objects/", o.obj_id);
+      absl::StatusOr<v1::Object> existing = client.GetObject(name);
+      if (existing.ok()) {
+        std::printf("%s is already trained: kept (delete it to retrain)\n", name.c_str());
+        continue;
+      }
+      if (!absl::IsNotFound(existing.status())) return existing.status();
+    }
+    if (!absl::GetFlag(FLAGS_name).empty()) o.name = absl::GetFlag(FLAGS_name);
+    absl::StatusOr<v1::Object> trained = StreamObject(client, o);
+    if (!trained.ok()) return trained.status();
+    PrintObject(*trained);
+  }
+  return absl::OkStatus();
+}
+
+absl::Status Build(ObjectClient& client) {
+  v1::BuildClassifierRequest request;
+  if (int k = absl::GetFlag(FLAGS_classes_per_object); k > 0) {
+    request.mutable_params()->set_classes_per_object(k);
+  }
+  if (int t = absl::GetFlag(FLAGS_trees); t > 0) request.mutable_params()->set_trees(t);
+  if (int d = absl::GetFlag(FLAGS_max_depth); d > 0) request.mutable_params()->set_max_depth(d);
+  absl::StatusOr<v1::Operation> op = client.BuildClassifier(request);
+  if (!op.ok()) return op.status();
+  op = client.WaitDone(op->name(), PrintProgress);
+  if (!op.ok()) return op.status();
+  const v1::Classifier& c = op->classifier();
+  std::printf("classifier ready: %d objects, %u classes, %u trees x depth %u, %.1f MiB\n",
+              c.objects_size(), c.classes(), c.params().trees(), c.params().max_depth(),
+              c.model_bytes() / 1048576.0);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::string> ObjectArg(const std::vector<std::string>& args) {
+  if (args.size() < 4) return absl::InvalidArgumentError("objects: this verb needs an object ID");
+  int id = 0;
+  if (!absl::SimpleAtoi(args[3], &id)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("objects: ID \"", args[3], "\" is not a number"));
+  }
+  return absl::StrCat("objects/", id);
+}
+
+}  // namespace
+
+absl::Status TrainAndBuild(const std::string& server, const std::string& dataset,
+                           const Connection& connection) {
+  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server, {.connection = connection});
+  if (absl::Status s = Train(*client, dataset, /*keep_trained=*/true); !s.ok()) return s;
+  return Build(*client);
+}
+
+int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args,
+                      const Connection& connection) {
+  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server, {.connection = connection});
+  const std::string verb = args.size() > 2 ? args[2] : "ls";
+  if (verb == "ls") {
+    absl::StatusOr<std::vector<v1::Object>> objects = client->ListAllObjects();
+    if (!objects.ok()) return Fail(objects.status());
+    for (const v1::Object& o : *objects) PrintObject(o);
+    if (objects->empty()) std::printf("(no objects)\n");
+    return 0;
+  }
+  if (verb == "classifier") {
+    absl::StatusOr<v1::Classifier> c = client->GetClassifier();
+    if (!c.ok()) return Fail(c.status());
+    std::printf("%s\n", c->DebugString().c_str());
+    return 0;
+  }
+  if (verb == "build") return Exit(Build(*client));
+  if (verb == "train") {
+    if (args.size() < 4) return Fail(absl::InvalidArgumentError("objects train needs a DATASET"));
+    return Exit(Train(*client, args[3], /*keep_trained=*/false));
+  }
+  if (verb == "rm" || verb == "info") {
+    absl::StatusOr<std::string> name = ObjectArg(args);
+    if (!name.ok()) return Fail(name.status());
+    if (verb == "rm") {
+      if (absl::Status s = client->DeleteObject(*name); !s.ok()) return Fail(s);
+      std::printf("deleted %s\n", name->c_str());
+      return 0;
+    }
+    absl::StatusOr<v1::Object> o = client->GetObject(*name);
+    if (!o.ok()) return Fail(o.status());
+    std::printf("%s\n", o->DebugString().c_str());
+    return 0;
+  }
+  std::fprintf(stderr,
+               "skimap: objects ls | info ID | rm ID | train DATASET | build | classifier\n");
+  return 2;
+}
+
+}  // namespace skimap::client

@@ -1,0 +1,393 @@
+// skimap: command-line client of skimapd.
+//
+//   skimap [--server=localhost:50051] maps ls | maps create ID [--resolution=0.05]
+//                                     | maps rm ID | maps info ID
+//   skimap stream DATASET --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=zstd]
+//                                              (creates ID if missing)
+//   skimap grid --map=ID -o FILE.yaml          ROS map_server PGM + YAML (trinary)
+//   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
+//   skimap voxels --map=ID -o FILE.ply
+//   skimap export --map=ID -o FILE [--with-journal]   the map as one export file
+//   skimap import FILE [--as=ID]                       a map from an export file
+//     (client/cli/transfer_command.h)
+//   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | build | classifier
+//     (client/cli/objects_command.h)
+//   skimap nodes                               a fleet's nodes and the maps each serves
+//   skimap instances --map=ID [--box=..|--sphere=..] [--objects=..] [--min_score=S] [--json]
+//     (client/cli/instances_command.h); `stream --recognition=newest` creates a map with it on
+//   skimap eval DATASET [--scenes=..] [--every=N] [--max_frames=N] [--csv=FILE] [--train]
+//     recognition precision / recall on a BOP dataset's test scenes (client/cli/eval_command.h)
+//
+// Authentication and TLS (docs/operations.md): --token_file=FILE (or $SKIMAP_TOKEN) sends
+// `authorization: Bearer <token>`; --tls_ca=PEM [--tls_cert=PEM --tls_key=PEM] connect
+// over TLS (with a client certificate: mTLS).
+#include <algorithm>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/str_format.h"
+#include "client/cli/eval_command.h"
+#include "client/cli/instances_command.h"
+#include "client/cli/objects_command.h"
+#include "client/cli/stream_command.h"
+#include "client/cli/transfer_command.h"
+#include "client/map_client.h"
+#include "client/map_files.h"
+
+ABSL_FLAG(std::string, server, "localhost:50051", "skimapd address host:port");
+ABSL_FLAG(std::string, map, "", "map id (maps/ID)");
+ABSL_FLAG(std::string, o, "", "output file");
+ABSL_FLAG(double, fps, 0, "stream: frames per second (0 = as fast as the server takes them)");
+ABSL_FLAG(double, resolution, 0.05, "maps create / stream: voxel size in metres");
+ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
+ABSL_FLAG(std::string, depth_encoding, "zstd",
+          "stream: depth on the wire, lossless: zstd (the fastest for the server, the default), "
+          "rvl, png16 (the dataset's files as stored) or raw");
+ABSL_FLAG(bool, with_journal, false,
+          "export: also the map's journal (UpdatePoses then works on the imported frames)");
+ABSL_FLAG(std::string, as, "", "import: the new map's id (default: the id in the file)");
+ABSL_FLAG(std::string, recognition, "off",
+          "stream: when the map is created, recognition on it: off, newest (skip frames while "
+          "busy) or every_frame (acks wait for it)");
+ABSL_FLAG(std::string, box, "", "instances: region X0,Y0,Z0,X1,Y1,Z1 in metres");
+ABSL_FLAG(std::string, sphere, "", "instances: region X,Y,Z,R in metres");
+ABSL_FLAG(std::string, objects, "", "instances: only these obj_ids, e.g. 1,5");
+ABSL_FLAG(double, min_score, 0, "instances: minimum score");
+ABSL_FLAG(bool, json, false, "instances: JSON in the BOP convention (R row-major, t in mm)");
+ABSL_FLAG(std::string, scenes, "", "eval: test scene folder names, comma-separated (default all)");
+ABSL_FLAG(int, every, 1, "eval: stream every n-th frame");
+ABSL_FLAG(int, max_frames, 0, "eval: frames per scene at most (0 = all)");
+ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this distance");
+ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
+ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
+ABSL_FLAG(bool, keep_maps, false, "eval: keep the eval_<scene> maps");
+ABSL_FLAG(double, min_instance_score, -1,
+          "eval: the maps' min_instance_score (instances scoring less are not listed; -1 = "
+          "the server's default; 0 lists all, to sweep the threshold from --summary)");
+ABSL_FLAG(double, min_instance_fit, -1,
+          "eval: the maps' min_instance_fit (-1 = the server's default)");
+ABSL_FLAG(double, max_view_conflict, -1,
+          "eval: the maps' max_view_conflict (-1 = the server's default; 1 lists all)");
+ABSL_FLAG(bool, single_view, true,
+          "eval: also score the single-view baseline (each frame alone: ClassifyImage + PnP)");
+ABSL_FLAG(std::string, instances_dir, "",
+          "eval: write each scene's instances (map and single view) as JSON files here");
+ABSL_FLAG(std::string, summary, "",
+          "eval: write the totals and each instance's score and verdict as JSON here");
+ABSL_FLAG(bool, train, false,
+          "eval: first train every train/ object of DATASET and build the classifier (the "
+          "objects train / build flags apply: --detector, --classes_per_object, --trees, ...)");
+ABSL_FLAG(std::string, token_file, "",
+          "file whose first line is the bearer token sent on every call (default: the "
+          "environment variable SKIMAP_TOKEN, if set)");
+ABSL_FLAG(std::string, tls_ca, "",
+          "TLS: PEM CA certificate(s) that signed skimapd's certificate (TLS is used when any "
+          "--tls_* flag is given; without --tls_ca, the system's roots)");
+ABSL_FLAG(std::string, tls_cert, "", "TLS: PEM client certificate for mTLS (with --tls_key)");
+ABSL_FLAG(std::string, tls_key, "", "TLS: PEM private key of --tls_cert");
+
+namespace {
+
+using skimap::client::MapClient;
+namespace v1 = skimap::v1;
+
+int Fail(const absl::Status& s) {
+  std::fprintf(stderr, "skimap: %s\n", s.ToString().c_str());
+  return 1;
+}
+
+std::string MapNameFlag() { return "maps/" + absl::GetFlag(FLAGS_map); }
+
+void PrintMap(const v1::Map& m) {
+  const v1::MapStats& s = m.stats();
+  std::printf("%s  resolution %.3g m  voxels %llu  frames %llu  memory %.1f MiB", m.name().c_str(),
+              m.options().resolution(), (unsigned long long)s.voxels(),
+              (unsigned long long)s.frames(), s.memory_bytes() / 1048576.0);
+  if (s.has_bounds()) {
+    std::printf("  bounds [%.2f %.2f %.2f] .. [%.2f %.2f %.2f]", s.bounds().min().x(),
+                s.bounds().min().y(), s.bounds().min().z(), s.bounds().max().x(),
+                s.bounds().max().y(), s.bounds().max().z());
+  }
+  if (!m.owner_node().empty()) {
+    std::printf("  owner %s (%s)", m.owner_node().c_str(), m.owner_address().c_str());
+  }
+  std::printf("\n");
+}
+
+// `skimap nodes`: one line per node of the fleet, then its maps.
+int Nodes(MapClient& client) {
+  absl::StatusOr<v1::ListNodesResponse> nodes = client.ListNodes();
+  if (!nodes.ok()) return Fail(nodes.status());
+  for (const v1::Node& n : nodes->nodes()) {
+    std::printf("%s  %s  %s%s  %d maps\n", n.id().c_str(), n.address().c_str(),
+                n.live() ? "live" : "silent", n.answering() ? " (answered)" : "", n.maps_size());
+    for (const std::string& m : n.maps()) std::printf("  %s\n", m.c_str());
+  }
+  if (nodes->nodes_size() == 0) std::printf("(no nodes)\n");
+  return 0;
+}
+
+// `skimap health`: SERVING and exit 0, or the reason and exit 1 (container health checks:
+// the standard gRPC health service answers without a token).
+int Health(MapClient& client) {
+  if (absl::Status s = client.CheckHealth(); !s.ok()) return Fail(s);
+  std::printf("SERVING\n");
+  return 0;
+}
+
+int Maps(MapClient& client, const std::vector<std::string>& args) {
+  const std::string verb = args.size() > 2 ? args[2] : "ls";
+  if (verb == "ls") {
+    absl::StatusOr<std::vector<v1::Map>> maps = client.ListAllMaps();
+    if (!maps.ok()) return Fail(maps.status());
+    for (const v1::Map& m : *maps) PrintMap(m);
+    if (maps->empty()) std::printf("(no maps)\n");
+    return 0;
+  }
+  if (args.size() < 4) return Fail(absl::InvalidArgumentError("maps " + verb + " needs an ID"));
+  const std::string id = args[3];
+  if (verb == "create") {
+    v1::CreateMapRequest request;
+    request.set_map_id(id);
+    request.mutable_options()->set_resolution(absl::GetFlag(FLAGS_resolution));
+    absl::StatusOr<v1::Map> map = client.CreateMap(request);
+    if (!map.ok()) return Fail(map.status());
+    PrintMap(*map);
+    return 0;
+  }
+  if (verb == "rm") {
+    if (absl::Status s = client.DeleteMap("maps/" + id); !s.ok()) return Fail(s);
+    std::printf("deleted maps/%s\n", id.c_str());
+    return 0;
+  }
+  if (verb == "info") {
+    absl::StatusOr<v1::Map> map = client.GetMap("maps/" + id);
+    if (!map.ok()) return Fail(map.status());
+    std::printf("%s\n", map->DebugString().c_str());
+    return 0;
+  }
+  return Fail(absl::InvalidArgumentError("maps: ls | create ID | rm ID | info ID"));
+}
+
+int Grid(MapClient& client) {
+  v1::GetOccupancyGridRequest request;
+  request.set_map(MapNameFlag());
+  request.set_data_encoding(v1::GRID_ENCODING_ZSTD);  // fewer bytes on the wire
+  absl::StatusOr<v1::OccupancyGrid> grid = client.GetOccupancyGrid(request);
+  if (!grid.ok()) return Fail(grid.status());
+  const std::string out = absl::GetFlag(FLAGS_o);
+  if (absl::Status s = skimap::client::WriteRosMap(*grid, out); !s.ok()) return Fail(s);
+  std::printf("occupancy grid %ux%u cells at %.3g m -> %s (+ %s)\n", grid->width(), grid->height(),
+              grid->resolution(), out.c_str(),
+              skimap::client::ReplaceExtension(out, ".pgm").c_str());
+  return 0;
+}
+
+int HeightMap(MapClient& client) {
+  v1::GetHeightMapRequest request;
+  request.set_map(MapNameFlag());
+  absl::StatusOr<v1::HeightMap> map = client.GetHeightMap(request);
+  if (!map.ok()) return Fail(map.status());
+  const std::string out = absl::GetFlag(FLAGS_o);
+  if (absl::Status s = skimap::client::WriteHeightMap(*map, out); !s.ok()) return Fail(s);
+  std::printf("height map %ux%u cells at %.3g m -> %s (+ %s)\n", map->width(), map->height(),
+              map->resolution(), out.c_str(),
+              skimap::client::ReplaceExtension(out, ".yaml").c_str());
+  return 0;
+}
+
+int Voxels(MapClient& client) {
+  v1::GetVoxelsRequest request;
+  request.set_map(MapNameFlag());
+  request.set_page_size(50000);
+  absl::StatusOr<std::vector<v1::Voxel>> voxels = client.GetAllVoxels(request);
+  if (!voxels.ok()) return Fail(voxels.status());
+  const std::string out = absl::GetFlag(FLAGS_o);
+  if (absl::Status s = skimap::client::WritePly(*voxels, out); !s.ok()) return Fail(s);
+  std::printf("%zu voxels -> %s\n", voxels->size(), out.c_str());
+  return 0;
+}
+
+int Export(MapClient& client) {
+  const std::string id = absl::GetFlag(FLAGS_map), out = absl::GetFlag(FLAGS_o);
+  const bool journal = absl::GetFlag(FLAGS_with_journal);
+  absl::StatusOr<uint64_t> bytes = skimap::client::ExportMapToFile(client, id, out, journal);
+  if (!bytes.ok()) return Fail(bytes.status());
+  std::printf("maps/%s -> %s (%llu bytes%s)\n", id.c_str(), out.c_str(), (unsigned long long)*bytes,
+              journal ? ", with journal" : "");
+  return 0;
+}
+
+int Import(MapClient& client, const std::vector<std::string>& args) {
+  if (args.size() < 3) return Fail(absl::InvalidArgumentError("import needs a FILE"));
+  absl::StatusOr<v1::Map> map =
+      skimap::client::ImportMapFromFile(client, args[2], absl::GetFlag(FLAGS_as));
+  if (!map.ok()) return Fail(map.status());
+  std::printf("%s <- ", args[2].c_str());
+  PrintMap(*map);
+  return 0;
+}
+
+// Flags may be spelled with '-' or '_' (--with-journal, --with_journal): abseil knows the
+// latter.
+std::vector<char*> NormalizeFlagNames(int argc, char** argv, std::vector<std::string>* storage) {
+  storage->assign(argv, argv + argc);
+  for (std::string& a : *storage) {
+    if (a == "--") break;
+    if (a.size() < 3 || a.compare(0, 2, "--") != 0) continue;
+    const size_t end = std::min(a.find('='), a.size());
+    for (size_t i = 2; i < end; ++i) {
+      if (a[i] == '-') a[i] = '_';
+    }
+  }
+  std::vector<char*> out;
+  for (std::string& a : *storage) out.push_back(a.data());
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage(
+      "skimap [--server=host:port] maps ls|create ID|rm ID|info ID\n"
+      "       skimap stream DATASET --map=ID [--fps=N]\n"
+      "       skimap grid --map=ID -o FILE.yaml\n"
+      "       skimap heightmap --map=ID -o FILE.png|FILE.tiff\n"
+      "       skimap voxels --map=ID -o FILE.ply\n"
+      "       skimap export --map=ID -o FILE [--with-journal]\n"
+      "       skimap import FILE [--as=ID]\n"
+      "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
+      "[--detector=ORB]|build|classifier\n"
+      "       skimap nodes\n"
+      "       skimap health\n"
+      "       skimap instances --map=ID [--box=X0,Y0,Z0,X1,Y1,Z1|--sphere=X,Y,Z,R] "
+      "[--objects=1,5] [--min_score=S] [--json]\n"
+      "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
+      "[--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10] [--csv=FILE] "
+      "[--instances_dir=DIR] [--summary=FILE] [--single_view=false] [--keep_maps] [--train] "
+      "[--min_instance_score=S] [--min_instance_fit=F] [--max_view_conflict=V]");
+  std::vector<std::string> arg_storage;
+  std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
+  std::vector<char*> positional =
+      absl::ParseCommandLine(static_cast<int>(normalized.size()), normalized.data());
+  std::vector<std::string> args(positional.begin(), positional.end());
+  if (args.size() < 2) {
+    std::fprintf(stderr, "%s\n", absl::ProgramUsageMessage().data());
+    return 2;
+  }
+  absl::StatusOr<skimap::client::Connection> connection =
+      skimap::client::Connection::FromFiles({.token_file = absl::GetFlag(FLAGS_token_file),
+                                             .tls_ca = absl::GetFlag(FLAGS_tls_ca),
+                                             .tls_cert = absl::GetFlag(FLAGS_tls_cert),
+                                             .tls_key = absl::GetFlag(FLAGS_tls_key)});
+  if (!connection.ok()) return Fail(connection.status());
+  if (args[1] == "objects") {
+    return skimap::client::RunObjectsCommand(absl::GetFlag(FLAGS_server), args, *connection);
+  }
+  std::unique_ptr<MapClient> client =
+      MapClient::Connect(absl::GetFlag(FLAGS_server), {.connection = *connection});
+  const std::string& command = args[1];
+  if (command == "maps") return Maps(*client, args);
+  if (command == "nodes") return Nodes(*client);
+  if (command == "health") return Health(*client);
+  if (command == "import") return Import(*client, args);
+  if (command == "eval") {
+    if (args.size() < 3) return Fail(absl::InvalidArgumentError("eval needs a DATASET path"));
+    skimap::client::EvalOptions options;
+    options.scenes = absl::GetFlag(FLAGS_scenes);
+    options.every = absl::GetFlag(FLAGS_every);
+    options.max_frames = absl::GetFlag(FLAGS_max_frames);
+    options.resolution = absl::GetFlag(FLAGS_resolution);
+    options.score.max_translation = absl::GetFlag(FLAGS_max_translation_mm) / 1000;
+    options.score.max_rotation_deg = absl::GetFlag(FLAGS_max_rotation_deg);
+    options.csv = absl::GetFlag(FLAGS_csv);
+    options.keep_maps = absl::GetFlag(FLAGS_keep_maps);
+    options.single_view = absl::GetFlag(FLAGS_single_view);
+    options.instances_dir = absl::GetFlag(FLAGS_instances_dir);
+    options.summary = absl::GetFlag(FLAGS_summary);
+    if (const double v = absl::GetFlag(FLAGS_min_instance_score); v != -1) {
+      options.min_instance_score = v;
+    }
+    if (const double v = absl::GetFlag(FLAGS_min_instance_fit); v != -1) {
+      options.min_instance_fit = v;
+    }
+    if (const double v = absl::GetFlag(FLAGS_max_view_conflict); v != -1) {
+      options.max_view_conflict = v;
+    }
+    if (options.every < 1) return Fail(absl::InvalidArgumentError("--every must be at least 1"));
+    if (absl::GetFlag(FLAGS_train)) {
+      if (absl::Status s =
+              skimap::client::TrainAndBuild(absl::GetFlag(FLAGS_server), args[2], *connection);
+          !s.ok()) {
+        return Fail(s);
+      }
+    }
+    std::unique_ptr<skimap::client::ObjectClient> objects = skimap::client::ObjectClient::Connect(
+        absl::GetFlag(FLAGS_server), {.connection = *connection});
+    absl::StatusOr<skimap::client::EvalTotals> totals =
+        skimap::client::RunEval(*client, *objects, args[2], options);
+    return totals.ok() ? 0 : Fail(totals.status());
+  }
+  const bool needs_map = command == "stream" || command == "grid" || command == "heightmap" ||
+                         command == "voxels" || command == "export" || command == "instances";
+  if (needs_map && absl::GetFlag(FLAGS_map).empty()) {
+    return Fail(absl::InvalidArgumentError(command + " needs --map=ID"));
+  }
+  if (command != "stream" && command != "instances" && needs_map &&
+      absl::GetFlag(FLAGS_o).empty()) {
+    return Fail(absl::InvalidArgumentError(command + " needs -o FILE"));
+  }
+  if (command == "stream") {
+    if (args.size() < 3) return Fail(absl::InvalidArgumentError("stream needs a DATASET path"));
+    skimap::client::StreamOptions options;
+    options.map_id = absl::GetFlag(FLAGS_map);
+    options.fps = absl::GetFlag(FLAGS_fps);
+    options.resolution = absl::GetFlag(FLAGS_resolution);
+    options.window = absl::GetFlag(FLAGS_window);
+    const std::string recognition = absl::GetFlag(FLAGS_recognition);
+    if (recognition == "newest" || recognition == "every_frame") {
+      options.recognition.emplace();
+      options.recognition->set_enabled(true);
+      options.recognition->set_policy(recognition == "newest"
+                                          ? v1::RecognitionOptions::NEWEST
+                                          : v1::RecognitionOptions::EVERY_FRAME);
+    } else if (recognition != "off") {
+      return Fail(absl::InvalidArgumentError("--recognition: off, newest or every_frame, not \"" +
+                                             recognition + "\""));
+    }
+    const std::string depth_encoding = absl::GetFlag(FLAGS_depth_encoding);
+    if (depth_encoding == "zstd") {
+      options.depth_encoding = skimap::v1::DEPTH_ENCODING_ZSTD;
+    } else if (depth_encoding == "rvl") {
+      options.depth_encoding = skimap::v1::DEPTH_ENCODING_RVL;
+    } else if (depth_encoding == "png16") {
+      options.depth_encoding = skimap::v1::DEPTH_ENCODING_PNG16;
+    } else if (depth_encoding == "raw") {
+      options.depth_encoding = skimap::v1::DEPTH_ENCODING_RAW_U16;
+    } else {
+      return Fail(absl::InvalidArgumentError("--depth_encoding must be zstd, rvl, png16 or raw"));
+    }
+    absl::Status s = skimap::client::StreamDataset(*client, args[2], options);
+    return s.ok() ? 0 : Fail(s);
+  }
+  if (command == "grid") return Grid(*client);
+  if (command == "heightmap") return HeightMap(*client);
+  if (command == "voxels") return Voxels(*client);
+  if (command == "export") return Export(*client);
+  if (command == "instances") {
+    skimap::client::InstancesOptions options;
+    options.map_id = absl::GetFlag(FLAGS_map);
+    options.box = absl::GetFlag(FLAGS_box);
+    options.sphere = absl::GetFlag(FLAGS_sphere);
+    options.objects = absl::GetFlag(FLAGS_objects);
+    options.min_score = absl::GetFlag(FLAGS_min_score);
+    options.json = absl::GetFlag(FLAGS_json);
+    absl::Status s = skimap::client::RunInstancesCommand(*client, options);
+    return s.ok() ? 0 : Fail(s);
+  }
+  return Fail(absl::InvalidArgumentError("unknown command " + command + " (see --help)"));
+}

@@ -1,0 +1,60 @@
+// RecognitionConfig: a map's effective recognition options (v1::RecognitionOptions with
+// the defaults filled in and validated; docs/recognition.md explains each).
+//
+// Thread safety: plain values and pure functions.
+#ifndef SERVER_CORE_RECOGNITION_RECOGNITION_CONFIG_H_
+#define SERVER_CORE_RECOGNITION_RECOGNITION_CONFIG_H_
+
+#include <cmath>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "skimap/hypotheses_voxel.h"
+#include "skimap/v1/instances.pb.h"
+
+namespace skimap::server {
+
+// The trained surface (m², 400 voxels of 1 cm) whose objects are asked min_score itself.
+inline constexpr double kReferenceSurface = 0.04;
+
+// When an instance is visible: listed, reported by events, found by GetInstance
+// (docs/recognition.md, "Global instances"). The score asked grows with the square root of
+// the object's trained surface: an object of surface A is asked
+// min_score * sqrt(A / kReferenceSurface) (a 5 cm cube about 0.58 min_score), one of
+// unknown surface (0) min_score.
+struct InstanceVisibility {
+  double min_score = 40;
+  double min_fit = 0.15;
+  double max_view_conflict = 0.06;
+  double MinScore(double surface_area) const {
+    return surface_area > 0 ? min_score * std::sqrt(surface_area / kReferenceSurface) : min_score;
+  }
+  bool operator()(const Instance& i, double surface_area) const {
+    return i.score >= MinScore(surface_area) && i.fit >= min_fit &&
+           ViewConflict(i) <= max_view_conflict;
+  }
+  friend bool operator==(const InstanceVisibility&, const InstanceVisibility&) = default;
+};
+
+struct RecognitionConfig {
+  bool enabled = false;
+  std::vector<int> obj_ids;  // empty: every object of the classifier
+  double labels_resolution = 0.005, hypotheses_resolution = 0.03, instances_resolution = 0.05;
+  double sphere_distance = 1.0;  // metres along the optical axis; 0 = the scene rule
+  double sphere_radius = 0.6;
+  int triples = 2000;
+  double hough_bin = 0.02;
+  bool every_frame = false;    // policy EVERY_FRAME (else NEWEST)
+  InstanceVisibility visible;  // min_instance_score, min_instance_fit, max_view_conflict
+  friend bool operator==(const RecognitionConfig&, const RecognitionConfig&) = default;
+};
+
+// Defaults filled in and validated; InvalidArgument naming the field
+// ("options.recognition.sphere_radius must be in [0.05, 5] metres").
+absl::StatusOr<RecognitionConfig> ResolveRecognitionOptions(const v1::RecognitionOptions& o);
+// Every field set (policy NEWEST or EVERY_FRAME).
+v1::RecognitionOptions ToProto(const RecognitionConfig& c);
+
+}  // namespace skimap::server
+
+#endif  // SERVER_CORE_RECOGNITION_RECOGNITION_CONFIG_H_
