@@ -10,6 +10,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "base/echo.h"
+#include "server/core/auth/access.h"
 #include "server/http/openapi_json.h"  // generated from openapi.json (CMakeLists.txt)
 #include "server/http/raster_images.h"
 #include "server/http/rest_messages.h"
@@ -160,8 +161,9 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, 
                       auto request = ParseRequest<v1::CreateMapRequest>(call, Body::kJson, {});
                       if (!request.ok()) return request.status();
                       if (call.grant != nullptr) {  // the map is named in the body
-                        if (absl::Status s = call.grant->CheckMap(auth::Role::kWrite,
-                                                                  "maps/" + request->map_id());
+                        if (absl::Status s =
+                                call.grant->CheckMap(auth::MethodRole("MapService/CreateMap"),
+                                                     "maps/" + request->map_id());
                             !s.ok()) {
                           return s;
                         }

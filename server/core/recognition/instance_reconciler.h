@@ -1,5 +1,5 @@
-// Instance reconciliation (docs/recognition.md, "Instances"): brings a map's instances of
-// one object in a region in line with the hypotheses there. It runs after a frame's
+// Instance reconciliation (docs/recognition.md, "Choices", "Global instances"): brings a map's
+// instances of one object in a region in line with the hypotheses there. It runs after a frame's
 // hypotheses were added (region: the frame's active sphere) and after UpdatePoses moved
 // hypotheses (region: around their old and new places).
 //
