@@ -13,8 +13,8 @@ cd "$(dirname "$0")/.."
 flavour=${1:-release}
 shift || true
 # ccache keyed on paths relative to the checkout, so that a fresh clone elsewhere (CI) hits
-# what an earlier build of the same sources left in the cache.
-export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
+# what an earlier build of the same sources left in the cache; room for the three flavours.
+export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1 CCACHE_MAXSIZE="${CCACHE_MAXSIZE:-20G}"
 args=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 case "$flavour" in
   release) ;;
