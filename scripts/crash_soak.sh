@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Crash-consistency soak: the crash test (tests/hostile/crash_test.cc) with many SIGKILLs at
+# Crash-consistency soak: the crash test (tests/server/app/crash_test.cc) with many SIGKILLs at
 # random moments while two clients stream into a real skimapd (ctest runs 5 kills).
 # Usage: scripts/crash_soak.sh [rounds (default 25)] [seed (default random)]
 #   SKIMAP_CRASH_FRAMES=N  frames per stream and round (default 24)
@@ -21,6 +21,6 @@ echo "crash soak: $rounds kills, seed $seed, time limit ${limit}s"
 start=$(date +%s)
 status=0
 SKIMAP_CRASH_ROUNDS=$rounds SKIMAP_CRASH_SEED=$seed timeout "$limit" \
-  build/release/tests/hostile/skimap_crash_test --gtest_filter='CrashTest.*' || status=$?
+  build/release/tests/server/app/skimap_crash_test --gtest_filter='CrashTest.*' || status=$?
 echo "crash soak: $rounds kills, seed $seed: $([[ $status == 0 ]] && echo PASSED || echo "FAILED (status $status)") in $(($(date +%s) - start)) s"
 exit "$status"

@@ -26,14 +26,14 @@ fi
 # postgresql: the PostgreSQL tests start throwaway servers of their own
 # (tests/common/postgres_server.h); the package's default cluster is not used.
 # chromium: the viewer's browser test (tests/web) drives Debian's chromium headless.
-# Node.js for the viewer (web/, built by scripts/build.sh) and the third-party client test (tests/clients/node): Debian's unless a node is
+# Node.js for the viewer (web/, built by scripts/build.sh) and the third-party client test (tests/interop/node): Debian's unless a node is
 # already installed; its npm packages exactly as the committed package-lock.json says.
 if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
   export DEBIAN_FRONTEND=noninteractive
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
 fi
-node_client="$(dirname "$0")/../tests/clients/node"
+node_client="$(dirname "$0")/../tests/interop/node"
 if [[ ! -d "$node_client/node_modules" || "$node_client/package-lock.json" -nt "$node_client/node_modules" ]]; then
   (cd "$node_client" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
 fi

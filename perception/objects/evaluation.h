@@ -1,6 +1,6 @@
 // Held-out evaluation of an ObjectDatabase on annotated views (e.g. training frames kept
 // out of training): per object, how often features and whole views are classified to the
-// right object. Used by tests/objects and bench/objects_bench.cc.
+// right object. Used by tests/perception/objects and bench/objects_bench.cc.
 //
 // Per feature (features detected inside the object's eroded mask, as in training):
 //   top1:     the forest's most confident class belongs to the right object;

@@ -10,7 +10,7 @@
 // within params.verify_threshold of one of the centroids of the predicted voxel v(c)
 // (Hamming bits for binary descriptors, L2 for float ones).
 //
-// Persistence: database_io.h (SQLite, storage/object_store.h).
+// Persistence: server/core/objects/object_database_io.h (SQLite, storage/object_store.h).
 // Thread safety: immutable after construction; every const method may run concurrently.
 #ifndef SKIMAP_PERCEPTION_OBJECTS_OBJECT_DATABASE_H_
 #define SKIMAP_PERCEPTION_OBJECTS_OBJECT_DATABASE_H_

@@ -68,7 +68,7 @@ class Server {
     // authentication is configured (skimapd --metrics_public); false: it takes a token
     // like the other routes. The route exists whenever HTTP is on.
     bool metrics_public = true;
-    // Bearer tokens (auth/token_file.h) for both adapters; "" = no authentication (then
+    // Bearer tokens (server/core/auth/token_file.h) for both adapters; "" = no authentication (then
     // only loopback addresses, or `insecure`). With tokens, any address may be bound. TLS:
     // grpc.tls and http.tls.
     std::string auth_tokens_file;

@@ -1,9 +1,10 @@
 // The gRPC side of authentication: the caller's grant from the call's `authorization`
-// metadata ("Bearer <token>"), asked of the one Authorizer (auth/authorizer.h), and the
+// metadata ("Bearer <token>"), asked of the one Authorizer (server/core/auth/authorizer.h), and the
 // reactors that refuse a call before it starts.
 //
 //   ServerUnaryReactor* GrpcMapService::GetMap(ctx, request, response) {
-//     if (absl::Status s = CheckMapCall(auth, ctx, Role::kRead, request->name()).status();
+//     if (absl::Status s = CheckMapCall(auth, ctx, auth::MethodRole("MapService/GetMap"),
+//                                       request->name()).status();
 //         !s.ok()) return Refuse(ctx, s);
 //     ...
 //

@@ -201,7 +201,7 @@ ServerUnaryReactor* GrpcMapService::ListInstances(CallbackServerContext* ctx,
   if (absl::Status s = Allow(ctx, auth::MethodRole("MapService/ListInstances"), request->map());
       !s.ok())
     return Refuse(ctx, s);
-  return Reply(ctx, core_->ListInstances(*request), response);
+  return Reply(ctx, instances_.ListInstances(*request), response);
 }
 
 ServerUnaryReactor* GrpcMapService::GetInstance(CallbackServerContext* ctx,
@@ -210,7 +210,7 @@ ServerUnaryReactor* GrpcMapService::GetInstance(CallbackServerContext* ctx,
   if (absl::Status s = Allow(ctx, auth::MethodRole("MapService/GetInstance"), request->name());
       !s.ok())
     return Refuse(ctx, s);
-  return Reply(ctx, core_->GetInstance(*request), response);
+  return Reply(ctx, instances_.GetInstance(*request), response);
 }
 
 ServerUnaryReactor* GrpcMapService::GetLabelVoxels(CallbackServerContext* ctx,
@@ -219,7 +219,7 @@ ServerUnaryReactor* GrpcMapService::GetLabelVoxels(CallbackServerContext* ctx,
   if (absl::Status s = Allow(ctx, auth::MethodRole("MapService/GetLabelVoxels"), request->map());
       !s.ok())
     return Refuse(ctx, s);
-  return Reply(ctx, core_->GetLabelVoxels(*request), response);
+  return Reply(ctx, instances_.GetLabelVoxels(*request), response);
 }
 
 grpc::ServerWriteReactor<v1::InstanceEvent>* GrpcMapService::WatchInstances(
@@ -228,7 +228,7 @@ grpc::ServerWriteReactor<v1::InstanceEvent>* GrpcMapService::WatchInstances(
       !s.ok()) {
     return new RefusedCall<grpc::ServerWriteReactor<v1::InstanceEvent>>(s);
   }
-  return new InstanceWatchReactor(core_, *request);
+  return new InstanceWatchReactor(&instances_, *request);
 }
 
 }  // namespace skimap::server

@@ -27,6 +27,7 @@
 #include "server/core/auth/authorizer.h"
 #include "server/core/common/work_queue.h"
 #include "server/core/maps/map_service.h"
+#include "server/core/recognition/instance_queries.h"
 #include "server/grpc/stream_limiter.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
@@ -47,6 +48,7 @@ class GrpcMapService final : public v1::MapService::CallbackService {
   // REQUIRES: core outlives this service; the service outlives every call it started.
   GrpcMapService(MapService* core, const Options& options)
       : core_(core),
+        instances_(core),
         options_(options),
         streams_(options.max_streams_per_client),
         blocking_({.capacity = 1, .threads = std::max(1, options.transfer_threads)}) {}
@@ -106,6 +108,7 @@ class GrpcMapService final : public v1::MapService::CallbackService {
                      absl::string_view resource) const;
 
   MapService* const core_;
+  const InstanceQueries instances_;  // the recognition calls, over core_
   const Options options_;
   StreamLimiter streams_;
   WorkQueue blocking_;  // ExportMap / ImportMap steps (unbounded: one step per open call)

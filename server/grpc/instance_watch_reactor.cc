@@ -11,10 +11,10 @@ constexpr size_t kBatch = 64;  // events fetched from the map at a time
 
 }  // namespace
 
-InstanceWatchReactor::InstanceWatchReactor(MapService* core,
+InstanceWatchReactor::InstanceWatchReactor(const InstanceQueries* instances,
                                            const v1::WatchInstancesRequest& request) {
-  absl::StatusOr<std::unique_ptr<MapService::InstanceWatch>> watch =
-      core->WatchInstances(request, [this] { Wake(); });
+  absl::StatusOr<std::unique_ptr<InstanceQueries::InstanceWatch>> watch =
+      instances->WatchInstances(request, [this] { Wake(); });
   std::lock_guard<std::mutex> lock(mu_);
   if (!watch.ok()) {
     FinishLocked(ToGrpcStatus(watch.status()));
@@ -64,7 +64,7 @@ void InstanceWatchReactor::OnCancel() {
 }
 
 void InstanceWatchReactor::OnDone() {
-  std::unique_ptr<MapService::InstanceWatch> watch;
+  std::unique_ptr<InstanceQueries::InstanceWatch> watch;
   {
     std::lock_guard<std::mutex> lock(mu_);
     watch = std::move(watch_);

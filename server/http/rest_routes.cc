@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "base/echo.h"
 #include "server/core/auth/access.h"
+#include "server/core/recognition/instance_queries.h"
 #include "server/http/openapi_json.h"  // generated from openapi.json (CMakeLists.txt)
 #include "server/http/raster_images.h"
 #include "server/http/rest_messages.h"
@@ -140,6 +141,8 @@ RestRoute MetricsRoute(Metrics& metrics) {
 }
 
 std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, MapEvents& events) {
+  // The recognition routes' core, shared by their handlers (which the routes outlive).
+  auto instances = std::make_shared<const InstanceQueries>(&maps);
   std::vector<RestRoute> routes;
   routes.push_back({"GET", "/healthz", [](const RestCall&) -> absl::StatusOr<RestReply> {
                       v1::HealthzResponse health;
@@ -217,15 +220,15 @@ std::vector<RestRoute> MakeRestRoutes(MapService& maps, ObjectService& objects, 
   routes.push_back(
       {"GET", "/v1/maps/{map}/instances",
        Unary<v1::ListInstancesRequest, v1::ListInstancesResponse>(
-           Body::kNone, kMap, [&maps](const auto& r) { return maps.ListInstances(r); })});
+           Body::kNone, kMap, [instances](const auto& r) { return instances->ListInstances(r); })});
   routes.push_back({"GET", "/v1/maps/{map}/instances/{id}",
                     Unary<v1::GetInstanceRequest, v1::Instance>(
                         Body::kNone, {{"name", "maps/{map}/instances/{id}"}},
-                        [&maps](const auto& r) { return maps.GetInstance(r); })});
-  routes.push_back(
-      {"GET", "/v1/maps/{map}/labels",
-       Unary<v1::GetLabelVoxelsRequest, v1::GetLabelVoxelsResponse>(
-           Body::kNone, kMap, [&maps](const auto& r) { return maps.GetLabelVoxels(r); })});
+                        [instances](const auto& r) { return instances->GetInstance(r); })});
+  routes.push_back({"GET", "/v1/maps/{map}/labels",
+                    Unary<v1::GetLabelVoxelsRequest, v1::GetLabelVoxelsResponse>(
+                        Body::kNone, kMap,
+                        [instances](const auto& r) { return instances->GetLabelVoxels(r); })});
   routes.push_back(
       {"GET", "/v1/objects",
        Unary<v1::ListObjectsRequest, v1::ListObjectsResponse>(

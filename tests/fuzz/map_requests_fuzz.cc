@@ -1,4 +1,4 @@
-// Fuzz target: every request validator of the map service core (server/maps/): CreateMap
+// Fuzz target: every request validator of the map service core (server/core/maps/): CreateMap
 // options and ids, map names, ListMaps paging, frames (envelope, decoding, pose within the
 // map), UpdatePoses, and the query validators (regions, boxes, bands, weights, radii, page
 // sizes and tokens, reply limits), through a real in-memory MapService with two maps that

@@ -1,7 +1,7 @@
 // Browser test of the viewer on a map with recognition (ctest:
 // Viewer.BrowserListsInstancesAndColoursLabels): a real skimapd with a data dir; the sim
 // `mini` objects (3) trained through `skimap objects train` and a small classifier built
-// (`skimap objects build`), as tests/recognition does; the mini test scene posted over
+// (`skimap objects build`), as tests/server/recognition does; the mini test scene posted over
 // REST (every --stride-th frame) into map "scene" with recognition on (policy EVERY_FRAME,
 // so every frame is recognised before its ack). Then, in Debian's headless chromium
 // (playwright-core), the viewer

@@ -7,10 +7,10 @@
 //
 // Every gRPC method of skimap.v1 has one entry ("Service/Method"), naming its role. Every
 // REST route has one entry too: the gRPC method it serves (its role is that method's), or,
-// for a route with no gRPC twin (health, the OpenAPI document, the viewer's event stream,
-// metrics), a role of its own. A method or route the table does not list needs admin: a
-// new call is closed until it is listed here (tests/auth/authorizer_test.cc checks that every
-// method of the services and every served route has exactly one entry).
+// for a route with no gRPC twin (health, the OpenAPI document, the viewer's trajectory and
+// event stream, metrics), a role of its own. A method or route the table does not list needs admin:
+// a new call is closed until it is listed here (tests/server/auth/authorizer_test.cc checks that
+// every method of the services and every served route has exactly one entry).
 //
 // Thread safety: pure functions over constant tables.
 #ifndef SERVER_CORE_AUTH_ACCESS_H_

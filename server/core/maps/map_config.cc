@@ -9,7 +9,7 @@
 namespace skimap::server {
 namespace {
 
-absl::Status Bad(absl::string_view field, absl::string_view what) {
+absl::Status BadMapOption(absl::string_view field, absl::string_view what) {
   return absl::InvalidArgumentError(absl::StrCat("options.", field, " ", what));
 }
 
@@ -19,24 +19,24 @@ absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& o) {
   MapConfig c;
   if (o.has_resolution()) c.resolution = o.resolution();
   if (!(c.resolution >= 0.001 && c.resolution <= 10)) {
-    return Bad("resolution", "must be in [0.001, 10] metres");
+    return BadMapOption("resolution", "must be in [0.001, 10] metres");
   }
   if (o.has_min_depth()) c.integration.min_depth = o.min_depth();
   if (o.has_max_depth()) c.integration.max_depth = o.max_depth();
   if (o.has_pixel_stride()) c.integration.pixel_stride = static_cast<int>(o.pixel_stride());
   if (!(c.integration.min_depth >= 0) || !std::isfinite(c.integration.min_depth)) {
-    return Bad("min_depth", "must be finite and >= 0");
+    return BadMapOption("min_depth", "must be finite and >= 0");
   }
   if (!(c.integration.max_depth > c.integration.min_depth) ||
       !std::isfinite(c.integration.max_depth)) {
-    return Bad("max_depth", "must be finite and > min_depth");
+    return BadMapOption("max_depth", "must be finite and > min_depth");
   }
   if (o.has_pixel_stride() && (o.pixel_stride() < 1 || o.pixel_stride() > 64)) {
-    return Bad("pixel_stride", "must be in 1..64");
+    return BadMapOption("pixel_stride", "must be in 1..64");
   }
   if (o.has_min_voxel_weight()) c.min_voxel_weight = o.min_voxel_weight();
   if (!(c.min_voxel_weight >= 0) || !std::isfinite(c.min_voxel_weight)) {
-    return Bad("min_voxel_weight", "must be finite and >= 0");
+    return BadMapOption("min_voxel_weight", "must be finite and >= 0");
   }
   if (o.has_band_min_z()) c.band_min_z = o.band_min_z();
   if (o.has_band_max_z()) c.band_max_z = o.band_max_z();
@@ -44,12 +44,12 @@ absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& o) {
   if (!std::isfinite(c.band_min_z) || !std::isfinite(c.band_max_z) ||
       !std::isfinite(c.floor_min_z) || !(c.floor_min_z <= c.band_min_z) ||
       !(c.band_min_z <= c.band_max_z)) {
-    return Bad("band_min_z", "band: need finite floor_min_z <= band_min_z <= band_max_z");
+    return BadMapOption("band_min_z", "band: need finite floor_min_z <= band_min_z <= band_max_z");
   }
   if (o.has_carve_free_space()) c.carve_free_space = o.carve_free_space();
   if (o.has_carve_pixel_stride()) {
     if (o.carve_pixel_stride() < 1 || o.carve_pixel_stride() > 64) {
-      return Bad("carve_pixel_stride", "must be in 1..64");
+      return BadMapOption("carve_pixel_stride", "must be in 1..64");
     }
     c.carve_pixel_stride = static_cast<int>(o.carve_pixel_stride());
   }

@@ -1,7 +1,9 @@
 // MapService: the transport-independent core of the SkiMap API (proto/skimap/v1). Each
 // method takes and returns the API's messages and reports errors as absl::Status with the
 // codes documented in map_service.proto; the gRPC adapter (grpc_service.h) converts them
-// once. Routes of the API map one-to-one onto these methods.
+// once. Routes of the API map one-to-one onto these methods, but for the recognition calls
+// (ListInstances, GetInstance, WatchInstances, GetLabelVoxels): InstanceQueries
+// (server/core/recognition/instance_queries.h), over FindMap.
 //
 //   MapService service({.worker_threads = 2});
 //   absl::StatusOr<v1::Map> map = service.CreateMap(request);
@@ -27,7 +29,6 @@
 #include "server/core/transfer/map_exporter.h"
 #include "server/core/transfer/map_importer.h"
 #include "skimap/v1/frames.pb.h"
-#include "skimap/v1/instances.pb.h"
 #include "skimap/v1/maps.pb.h"
 #include "skimap/v1/queries.pb.h"
 #include "storage/map_store.h"
@@ -128,38 +129,6 @@ class MapService {
   absl::StatusOr<std::unique_ptr<MapImporter>> ImportMap(const std::string& map_id);
   absl::StatusOr<v1::Map> FinishImport(MapImporter& importer);
 
-  // Instances found by recognition (map_service_instances.cc). FailedPrecondition for a map
-  // without recognition; InvalidArgument naming the field (region, page_token, ...).
-  absl::StatusOr<v1::ListInstancesResponse> ListInstances(
-      const v1::ListInstancesRequest& request) const;
-  absl::StatusOr<v1::Instance> GetInstance(const v1::GetInstanceRequest& request) const;
-  // The Labels volume (map_service_labels.cc): one page of its voxels in key order, each
-  // with its heaviest label and that class's object. FailedPrecondition for a map without
-  // recognition; InvalidArgument naming the field (box, page_size, page_token). Page
-  // tokens are bound to the map and the query (box, min_count), like GetVoxels'.
-  absl::StatusOr<v1::GetLabelVoxelsResponse> GetLabelVoxels(
-      const v1::GetLabelVoxelsRequest& request) const;
-  // WatchInstances: a watch of one map's instance events. Next() gives the events after the
-  // last one it gave (at most `max`), starting after request.after_sequence; `wake` runs
-  // (on a map thread; it must only schedule work) when new events may be there. Errors:
-  // the map's lookup, FailedPrecondition (no recognition, events no longer kept), NotFound
-  // once the map was deleted.
-  class InstanceWatch {
-   public:
-    ~InstanceWatch();
-    absl::StatusOr<std::vector<v1::InstanceEvent>> Next(size_t max);
-
-   private:
-    friend class MapService;
-    InstanceWatch(std::shared_ptr<LiveMap> map, uint64_t after)
-        : map_(std::move(map)), after_(after) {}
-    std::shared_ptr<LiveMap> map_;
-    uint64_t after_;
-    uint64_t watcher_ = 0;
-  };
-  absl::StatusOr<std::unique_ptr<InstanceWatch>> WatchInstances(
-      const v1::WatchInstancesRequest& request, std::function<void()> wake) const;
-
   // WatchMap: a watch of one map's changes (the viewer's live updates). `wake` runs (on a
   // map thread, under a mutex: it must only schedule work) after each write that changed
   // map `request.name` (an integrated frame, a pose update) and once when it is deleted or
@@ -179,10 +148,15 @@ class MapService {
   absl::StatusOr<std::unique_ptr<MapWatch>> WatchMap(const v1::GetMapRequest& request,
                                                      std::function<void()> wake) const;
 
- private:
-  absl::Status CheckRecognition(const RecognitionConfig& config) const;
+  // The map a request names ("maps/{id}"; `field` is the request's field, for errors),
+  // loaded: on a fleet node, claimed first (map_service_fleet.cc). For the cores built on
+  // this one (recognition/instance_queries.h). Errors: InvalidArgument naming `field`,
+  // NotFound, a redirect, the map's own (DataLoss for a corrupt map, ...).
   absl::StatusOr<std::shared_ptr<LiveMap>> FindMap(const std::string& name,
                                                    const char* field) const;
+
+ private:
+  absl::Status CheckRecognition(const RecognitionConfig& config) const;
 
   v1::Map Describe(const MapRegistry::Listed& listed) const;
   // Fleet nodes (map_service_fleet.cc). ClaimMap: OK once this node may serve map `id`,

@@ -8,7 +8,7 @@
 namespace skimap::server {
 namespace {
 
-absl::Status Bad(absl::string_view field, absl::string_view what) {
+absl::Status BadRecognitionOption(absl::string_view field, absl::string_view what) {
   return absl::InvalidArgumentError(absl::StrCat("options.recognition.", field, " ", what));
 }
 
@@ -17,7 +17,7 @@ absl::Status Range(bool has, double value, double lo, double hi, absl::string_vi
                    double* out) {
   if (!has) return absl::OkStatus();
   if (!(value >= lo && value <= hi)) {
-    return Bad(field, absl::StrCat("must be in [", lo, ", ", hi, "] metres"));
+    return BadRecognitionOption(field, absl::StrCat("must be in [", lo, ", ", hi, "] metres"));
   }
   *out = value;
   return absl::OkStatus();
@@ -31,8 +31,9 @@ absl::StatusOr<RecognitionConfig> ResolveRecognitionOptions(const v1::Recognitio
   absl::flat_hash_set<int> seen;
   for (int i = 0; i < o.obj_ids_size(); ++i) {
     if (o.obj_ids(i) <= 0 || !seen.insert(o.obj_ids(i)).second) {
-      return Bad(absl::StrCat("obj_ids[", i, "]"),
-                 absl::StrCat("must be a positive object id listed once, got ", o.obj_ids(i)));
+      return BadRecognitionOption(
+          absl::StrCat("obj_ids[", i, "]"),
+          absl::StrCat("must be a positive object id listed once, got ", o.obj_ids(i)));
     }
     c.obj_ids.push_back(o.obj_ids(i));
   }
@@ -52,24 +53,25 @@ absl::StatusOr<RecognitionConfig> ResolveRecognitionOptions(const v1::Recognitio
     if (!s.ok()) return s;
   }
   if (o.has_triples()) {
-    if (o.triples() < 10 || o.triples() > 100000) return Bad("triples", "must be in 10..100000");
+    if (o.triples() < 10 || o.triples() > 100000)
+      return BadRecognitionOption("triples", "must be in 10..100000");
     c.triples = static_cast<int>(o.triples());
   }
   if (o.has_min_instance_score()) {
     if (!(o.min_instance_score() >= 0) || !std::isfinite(o.min_instance_score())) {
-      return Bad("min_instance_score", "must be finite and >= 0");
+      return BadRecognitionOption("min_instance_score", "must be finite and >= 0");
     }
     c.visible.min_score = o.min_instance_score();
   }
   if (o.has_min_instance_fit()) {
     if (!(o.min_instance_fit() >= 0 && o.min_instance_fit() <= 1)) {
-      return Bad("min_instance_fit", "must be in [0, 1]");
+      return BadRecognitionOption("min_instance_fit", "must be in [0, 1]");
     }
     c.visible.min_fit = o.min_instance_fit();
   }
   if (o.has_max_view_conflict()) {
     if (!(o.max_view_conflict() >= 0 && o.max_view_conflict() <= 1)) {
-      return Bad("max_view_conflict", "must be in [0, 1]");
+      return BadRecognitionOption("max_view_conflict", "must be in [0, 1]");
     }
     c.visible.max_view_conflict = o.max_view_conflict();
   }
@@ -81,7 +83,7 @@ absl::StatusOr<RecognitionConfig> ResolveRecognitionOptions(const v1::Recognitio
       c.every_frame = true;
       break;
     default:
-      return Bad("policy", absl::StrCat("unknown value ", o.policy()));
+      return BadRecognitionOption("policy", absl::StrCat("unknown value ", o.policy()));
   }
   return c;
 }

@@ -1,0 +1,50 @@
+#include "tests/perception/objects/sim_data.h"
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sim/generator.h"
+
+namespace skimap::objects::testing {
+namespace fs = std::filesystem;
+
+std::string MiniDataset() {
+  const fs::path root = fs::path(SKIMAP_OBJECTS_TEST_DATA_DIR) / "mini";
+  const fs::path done = root / ".complete";
+  fs::create_directories(SKIMAP_OBJECTS_TEST_DATA_DIR);
+  const std::string lock_path = std::string(SKIMAP_OBJECTS_TEST_DATA_DIR) + "/.lock";
+  const int fd = open(lock_path.c_str(), O_CREAT | O_RDWR, 0644);
+  EXPECT_GE(fd, 0);
+  flock(fd, LOCK_EX);
+  if (!fs::exists(done)) {
+    fs::remove_all(root);
+    sim::GeneratorOptions o;
+    o.out_dir = root.string();
+    o.preset = "mini";
+    o.train_frames = kTrainFrames;
+    o.scenes = 0;
+    o.threads = 2;
+    absl::StatusOr<sim::GeneratorStats> s = sim::Generate(o);
+    EXPECT_TRUE(s.ok()) << s.status();
+    if (s.ok()) std::ofstream(done) << "mini, train_frames " << kTrainFrames << "\n";
+  }
+  flock(fd, LOCK_UN);
+  close(fd);
+  return root.string();
+}
+
+std::string TempDir() {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::temp_directory_path() /
+                       ("skimap_objects_" + std::to_string(getpid()) + "_" + info->name());
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+}  // namespace skimap::objects::testing
