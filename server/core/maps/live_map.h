@@ -32,6 +32,7 @@
 #define SERVER_CORE_MAPS_LIVE_MAP_H_
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -248,6 +249,8 @@ class LiveMap {
       const std::shared_ptr<DecodeJob>& job = nullptr);
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(const v1::UpdatePosesRequest& request,
                                                               Source source, uint64_t position);
+  // `d` as a protobuf Duration (the timings of acks and responses).
+  static void SetDuration(std::chrono::steady_clock::duration d, google::protobuf::Duration* out);
   absl::StatusOr<std::shared_ptr<const v1::Frame>> FrameOf(const FrameIndex::Entry& entry,
                                                            uint64_t sequence,
                                                            const std::string& field);

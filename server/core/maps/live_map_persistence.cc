@@ -1,7 +1,7 @@
 // LiveMap's persistence: loading a map (its snapshot chunks, then the journal after them),
 // replaying journal records, reading a journaled frame back (pose updates re-integrate it),
 // and snapshots (captured on the worker, encoded and written off it). The write path and
-// the queries are live_map.cc; the contract is live_map.h.
+// the queries are live_map.cc, pose updates live_map_poses.cc; the contract is live_map.h.
 #include <chrono>
 #include <limits>
 #include <utility>
