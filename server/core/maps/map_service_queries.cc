@@ -241,16 +241,9 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
       MinWeight(request.has_min_voxel_weight(), request.min_voxel_weight(), (*map)->config());
   if (!min_weight.ok()) return min_weight.status();
   const uint32_t query = VoxelQueryFingerprint(**map, request);
-  uint64_t start_packed = 0;
-  if (!request.page_token().empty()) {
-    absl::StatusOr<std::string> position = DecodePageToken(request.page_token(), query);
-    if (!position.ok()) return position.status();
-    Decoder d(*position);
-    if (!d.U64(&start_packed) || d.remaining() != 0 ||
-        start_packed >= (uint64_t{1} << (3 * kKeyBits))) {
-      return absl::InvalidArgumentError("page_token: not a GetVoxels position");
-    }
-  }
+  absl::StatusOr<std::optional<uint64_t>> start =
+      DecodeKeyPageToken(request.page_token(), query, "GetVoxels");
+  if (!start.ok()) return start.status();
   v1::GetVoxelsResponse out;
   absl::Status status = (*map)->Read([&](const MapState& state) -> absl::Status {
     const Volume& volume = state.rgb;
@@ -268,34 +261,19 @@ absl::StatusOr<v1::GetVoxelsResponse> MapService::GetVoxels(
                   std::min(scan.max.z, bounds->max.z)};
       out.set_resolution(grid.resolution() * (1 << request.level()));
       if (scan.empty()) return absl::OkStatus();
-      std::optional<uint64_t> start;
-      if (!request.page_token().empty()) start = start_packed;
       const std::optional<uint64_t> next =
-          AddVoxelBlocks(volume, scan, request.level(), start, page, *min_weight, &out);
-      if (next) {
-        std::string position;
-        Encoder(&position).U64(*next);
-        out.set_next_page_token(EncodePageToken(query, position));
-      }
+          AddVoxelBlocks(volume, scan, request.level(), *start, page, *min_weight, &out);
+      if (next) out.set_next_page_token(KeyPageToken(query, *next));
       return absl::OkStatus();
     }
-    const VoxelKey start = UnpackKey(start_packed);
-    KeyBox scan = *box;
-    scan.min.x =
-        std::max({scan.min.x, bounds->min.x, request.page_token().empty() ? kMinKey : start.x});
-    scan.max.x = std::min(scan.max.x, bounds->max.x);
-    const std::optional<VoxelKey> next =
-        WalkBoxPage(volume, scan, start_packed, [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
+    const std::optional<VoxelKey> next = WalkBoxPage(
+        volume, *box, *bounds, *start, [&](const VoxelKey& k, const RGBWeightedVoxel& v) {
           if (v.Weight() < *min_weight) return true;
           if (size_t(out.voxels_size()) == page) return false;
           FillVoxel(grid, k, v, out.add_voxels());
           return true;
         });
-    if (next) {
-      std::string position;
-      Encoder(&position).U64(PackKey(*next));
-      out.set_next_page_token(EncodePageToken(query, position));
-    }
+    if (next) out.set_next_page_token(KeyPageToken(query, PackKey(*next)));
     return absl::OkStatus();
   });
   if (!status.ok()) return status;

@@ -2,6 +2,9 @@
 
 #include <cmath>
 
+#include "absl/strings/str_cat.h"
+#include "server/core/common/page_token.h"
+
 namespace skimap::server {
 
 absl::StatusOr<KeyBox> QueryKeyBox(const Grid& grid, bool has_box, const v1::Box3& b) {
@@ -26,6 +29,25 @@ void EncodeQueryBox(bool has_box, const v1::Box3& b, Encoder& e) {
   for (double v : {b.min().x(), b.min().y(), b.min().z(), b.max().x(), b.max().y(), b.max().z()}) {
     e.F64(v);
   }
+}
+
+absl::StatusOr<std::optional<uint64_t>> DecodeKeyPageToken(const std::string& token, uint32_t query,
+                                                           absl::string_view rpc) {
+  if (token.empty()) return std::nullopt;
+  absl::StatusOr<std::string> position = DecodePageToken(token, query);
+  if (!position.ok()) return position.status();
+  Decoder d(*position);
+  uint64_t packed = 0;
+  if (!d.U64(&packed) || d.remaining() != 0 || packed >= (uint64_t{1} << (3 * kKeyBits))) {
+    return absl::InvalidArgumentError(absl::StrCat("page_token: not a ", rpc, " position"));
+  }
+  return packed;
+}
+
+std::string KeyPageToken(uint32_t query, uint64_t packed) {
+  std::string position;
+  Encoder(&position).U64(packed);
+  return EncodePageToken(query, position);
 }
 
 }  // namespace skimap::server

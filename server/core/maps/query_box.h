@@ -14,8 +14,10 @@
 #include <algorithm>
 #include <cstdint>
 #include <optional>
+#include <string>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "base/encoding.h"
 #include "skimap/grid.h"
 #include "skimap/v1/geometry.pb.h"
@@ -30,15 +32,25 @@ absl::StatusOr<KeyBox> QueryKeyBox(const Grid& grid, bool has_box, const v1::Box
 // token fingerprint (page_token.h).
 void EncodeQueryBox(bool has_box, const v1::Box3& box, Encoder& e);
 
+// Page tokens of the key-ordered queries, whose position is a packed voxel key.
+// DecodeKeyPageToken: nullopt for "" (the first page); page_token.h's errors, or
+// InvalidArgument "page_token: not a <rpc> position" for a position that is no key.
+absl::StatusOr<std::optional<uint64_t>> DecodeKeyPageToken(const std::string& token, uint32_t query,
+                                                           absl::string_view rpc);
+std::string KeyPageToken(uint32_t query, uint64_t packed);
+
 // Walks the voxels of `volume` (a SkiMap volume) inside `box` in slabs of 16 x keys, so
-// that a full page stops the walk early instead of visiting the whole box, skipping keys
-// whose PackKey is below `start` (a page token's position; nullopt: from the first).
+// that a full page stops the walk early instead of visiting the whole box, from the slab
+// of `start` (a page token's position; nullopt: from the first key) and skipping keys whose
+// PackKey is below it. `bounds`: the volume's Bounds() (the walk stays within them in x).
 // visit(key, voxel) returns false when the page is full at `key` (not taken): the walk
 // stops and returns that key, where the next page starts. nullopt: the box is done.
 template <class Volume, class Visit>
-std::optional<VoxelKey> WalkBoxPage(const Volume& volume, const KeyBox& box,
+std::optional<VoxelKey> WalkBoxPage(const Volume& volume, KeyBox box, const KeyBox& bounds,
                                     std::optional<uint64_t> start, Visit&& visit) {
   constexpr int32_t kSlab = 16;
+  box.min.x = std::max({box.min.x, bounds.min.x, start ? UnpackKey(*start).x : kMinKey});
+  box.max.x = std::min(box.max.x, bounds.max.x);
   std::optional<VoxelKey> next;
   for (int32_t x0 = box.min.x; x0 <= box.max.x && !next; x0 += kSlab) {
     KeyBox slab = box;

@@ -53,17 +53,9 @@ absl::StatusOr<v1::GetLabelVoxelsResponse> InstanceQueries::GetLabelVoxels(
   const size_t page = request.page_size() == 0 ? kDefaultPage : request.page_size();
   const uint32_t min_count = std::max<uint32_t>(request.min_count(), 1);
   const uint32_t query = LabelQueryFingerprint(m, request);
-  std::optional<uint64_t> start;
-  if (!request.page_token().empty()) {
-    absl::StatusOr<std::string> position = DecodePageToken(request.page_token(), query);
-    if (!position.ok()) return position.status();
-    Decoder d(*position);
-    uint64_t packed = 0;
-    if (!d.U64(&packed) || d.remaining() != 0 || packed >= (uint64_t{1} << (3 * kKeyBits))) {
-      return absl::InvalidArgumentError("page_token: not a GetLabelVoxels position");
-    }
-    start = packed;
-  }
+  absl::StatusOr<std::optional<uint64_t>> start =
+      DecodeKeyPageToken(request.page_token(), query, "GetLabelVoxels");
+  if (!start.ok()) return start.status();
   const recognition::RecognitionModel* model = m.recognition_model();
   v1::GetLabelVoxelsResponse out;
   absl::Status status = m.Read([&](const MapState& state) -> absl::Status {
@@ -74,11 +66,8 @@ absl::StatusOr<v1::GetLabelVoxelsResponse> InstanceQueries::GetLabelVoxels(
     if (!box.ok()) return box.status();
     const std::optional<KeyBox> bounds = labels.Bounds();
     if (!bounds || box->empty()) return absl::OkStatus();
-    KeyBox scan = *box;
-    scan.min.x = std::max({scan.min.x, bounds->min.x, start ? UnpackKey(*start).x : kMinKey});
-    scan.max.x = std::min(scan.max.x, bounds->max.x);
-    const std::optional<VoxelKey> next =
-        WalkBoxPage(labels, scan, start, [&](const VoxelKey& k, const MultiLabelVoxel& v) {
+    const std::optional<VoxelKey> next = WalkBoxPage(
+        labels, *box, *bounds, *start, [&](const VoxelKey& k, const MultiLabelVoxel& v) {
           const MultiLabelVoxel::Entry best = v.Heaviest();
           if (best.count < min_count) return true;
           if (size_t(out.voxels_size()) == page) return false;
@@ -95,11 +84,7 @@ absl::StatusOr<v1::GetLabelVoxelsResponse> InstanceQueries::GetLabelVoxels(
           voxel->set_obj_id(ObjectOf(model, best.label));
           return true;
         });
-    if (next) {
-      std::string position;
-      Encoder(&position).U64(PackKey(*next));
-      out.set_next_page_token(EncodePageToken(query, position));
-    }
+    if (next) out.set_next_page_token(KeyPageToken(query, PackKey(*next)));
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
