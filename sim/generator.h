@@ -27,7 +27,7 @@ namespace skimap::sim {
 // What to generate. Zero/negative counts mean "the preset's default".
 struct GeneratorOptions {
   std::string out_dir;          // created if missing; existing files overwritten
-  std::string preset = "mini";  // "mini" or "sk"
+  std::string preset = "mini";  // "mini", "sk" or "robot"
   uint64_t seed = 1;
   std::string texture_dir = kDefaultTextureDir;
   int scene_frames = 0;              // frames per test scene
@@ -35,6 +35,9 @@ struct GeneratorOptions {
   int scenes = -1;                   // number of test scenes (<= preset's)
   double speed_scale = 1;            // multiplies the trajectory speeds
   bool depth_noise = true;           // false: ideal depth (range limits only)
+  std::string noise = "kinect";      // sensor model of the test scenes (docs/sim.md): "kinect"
+                                     // or "harsh" (held-out: more depth noise, shorter range,
+                                     // more dropouts, colour noise, auto-exposure drift)
   int motion_blur = 0;               // 0/1: off; n >= 2: n sub-frames averaged
   bool train = true;                 // write train/
   int threads = 2;                   // frames rendered in parallel

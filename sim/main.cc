@@ -13,18 +13,21 @@ constexpr char kUsage[] = R"(usage: skimap-sim --out DIR [options]
 
 Makes a synthetic RGB-D dataset with ground truth in BOP layout (plus TUM text files).
 
-  --preset NAME       mini (3 objects, 1 scene, ~100 frames) or sk (12 objects, 5 scenes)
-                      [mini]
+  --preset NAME       mini (3 objects, 1 scene, ~100 frames), sk (12 objects, 5 scenes,
+                      hand-held) or robot (12 objects, 4 rooms, a robot's head camera
+                      patrolling) [mini]
   --out DIR           output folder (created; existing files are overwritten)
   --seed N            random seed; the same seed gives byte-identical output [1]
   --textures DIR      folder of .jpg/.png photographs
                       [/usr/share/doc/opencv-doc/examples/data]
-  --frames N          frames per test scene [preset: mini 100, sk 300]
+  --frames N          frames per test scene [preset: mini 100, sk 400, robot 900]
   --train-frames N    frames per training orbit variant [preset: mini 12, sk 36]
   --scenes N          only the first N test scenes
   --speed X           trajectory speed multiplier [1]
   --no-train          skip the object training sequences
   --no-depth-noise    ideal depth (range limits only)
+  --noise MODEL       test scenes' sensor: kinect or harsh (held out: more depth noise,
+                      4 m range, more dropouts, colour noise, auto-exposure drift) [kinect]
   --motion-blur N     average N sub-frames per frame (N >= 2 enables) [0]
   --threads N         frames rendered in parallel [2]
   --quiet             no progress output
@@ -59,6 +62,8 @@ int main(int argc, char** argv) {
       return 0;
     } else if (a == "--preset") {
       ok = value(&o.preset);
+    } else if (a == "--noise") {
+      ok = value(&o.noise);
     } else if (a == "--out") {
       ok = value(&o.out_dir);
     } else if (a == "--textures") {

@@ -1,6 +1,7 @@
 // Room construction and scene_geometry.json. See scene.h for the contract.
 #include "sim/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -59,12 +60,19 @@ void AddShelf(SceneLayout& s, int i, Vector2f lo, Vector2f hi, bool along_x) {
   }
 }
 
-// Places `mesh` on a random support with a random yaw (and lying boxes); false if no free
-// spot was found after some tries.
-bool Place(SceneLayout& s, const Mesh& mesh, Placement p, std::mt19937_64& rng,
+bool IsFloor(const Support& s) { return s.name.rfind("floor", 0) == 0; }
+
+// Places `mesh` on a random support (a floor strip when `on_floor`, else any other) with a
+// random yaw (and lying boxes); false if no free spot was found after some tries.
+bool Place(SceneLayout& s, const Mesh& mesh, Placement p, bool on_floor, std::mt19937_64& rng,
            std::vector<std::pair<std::string, Vector3f>>& taken) {  // (support, x y radius)
+  std::vector<const Support*> candidates;
+  for (const Support& sup : s.supports) {
+    if (IsFloor(sup) == on_floor) candidates.push_back(&sup);
+  }
+  if (candidates.empty()) return false;
   for (int attempt = 0; attempt < 60; ++attempt) {
-    const Support& sup = s.supports[rng() % s.supports.size()];
+    const Support& sup = *candidates[rng() % candidates.size()];
     Eigen::Matrix3f R =
         Eigen::AngleAxisf(Uniform(rng, -3.14159f, 3.14159f), Vector3f::UnitZ()).toRotationMatrix();
     if (rng() % 5 == 0) R = R * Eigen::AngleAxisf(1.5707963f, Vector3f::UnitX()).toRotationMatrix();
@@ -143,6 +151,19 @@ SceneLayout MakeRoom(const RoomSpec& spec, const std::vector<ObjectModel>& objec
                      size.z() / 2);
     AddBox(s, absl::StrCat("clutter_", i), "clutter", c - size / 2, c + size / 2);
   }
+  // Floor strips between the tables and the robot's loop (1 m from the walls), both sides.
+  if (spec.floor_objects > 0) {
+    float table_y = 0;
+    for (const Support& sup : s.supports) {
+      if (sup.name.rfind("table", 0) != 0) continue;
+      table_y = std::max({table_y, std::abs(sup.min.y()), std::abs(sup.max.y())});
+    }
+    const float y0 = table_y + 0.15f, y1 = d - 1.4f;
+    if (y1 - y0 >= 0.25f) {
+      s.supports.push_back({"floor_0", {-w + 1.3f, y0}, {w - 1.3f, y1}, 0, 10});
+      s.supports.push_back({"floor_1", {-w + 1.3f, -y1}, {w - 1.3f, -y0}, 0, 10});
+    }
+  }
   std::vector<std::pair<std::string, Vector3f>> taken;
   // A random subset of the database objects (Fisher-Yates on our own draws: portable).
   std::vector<int> order(objects.size());
@@ -153,12 +174,12 @@ SceneLayout MakeRoom(const RoomSpec& spec, const std::vector<ObjectModel>& objec
     Placement p;
     p.obj_id = objects[i].obj_id;
     p.mesh_index = i;
-    Place(s, objects[i].mesh, p, rng, taken);
+    Place(s, objects[i].mesh, p, k < spec.floor_objects, rng, taken);
   }
   for (int i = 0; i < spec.distractors && !distractors.empty(); ++i) {
     Placement p;
     p.mesh_index = i % static_cast<int>(distractors.size());
-    Place(s, distractors[p.mesh_index], p, rng, taken);
+    Place(s, distractors[p.mesh_index], p, false, rng, taken);
   }
   return s;
 }

@@ -52,6 +52,9 @@ struct RoomSpec {
   int tables = 2, shelves = 1, clutter = 2;
   int objects = 8;  // database objects placed (ids 1..objects, each once)
   int distractors = 4;
+  int floor_objects = 0;  // of `objects`, how many stand on the floor (two strips between
+                          // the tables and the walls, "floor_0" / "floor_1"; needs a room
+                          // at least 5 m deep)
 };
 
 // A complete scene.

@@ -44,8 +44,9 @@ absl::StatusOr<TrajectoryKind> ParseTrajectoryKind(const std::string& name) {
   if (name == "sweep") return TrajectoryKind::kSweep;
   if (name == "robot") return TrajectoryKind::kRobot;
   if (name == "tour") return TrajectoryKind::kTour;
+  if (name == "patrol") return TrajectoryKind::kPatrol;
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown trajectory \"", name, "\" (orbit, sweep, robot, tour)"));
+      absl::StrCat("unknown trajectory \"", name, "\" (orbit, sweep, robot, tour, patrol)"));
 }
 
 const char* TrajectoryKindName(TrajectoryKind kind) {
@@ -56,6 +57,8 @@ const char* TrajectoryKindName(TrajectoryKind kind) {
       return "sweep";
     case TrajectoryKind::kTour:
       return "tour";
+    case TrajectoryKind::kPatrol:
+      return "patrol";
     default:
       return "robot";
   }
@@ -117,10 +120,77 @@ void TourAt(const SceneLayout& scene, int i, int n, Vector3f* eye, Vector3f* tar
   *target = t0 + w * (t1 - t0);
 }
 
+// The base's loop (rectangle w x d half-sizes, counter-clockwise): position at path length
+// s and the driving direction.
+void LoopAt(float w, float d, float s, Vector3f* p, Vector3f* dir) {
+  const float perim = 4 * (w + d);
+  float u = std::fmod(s, perim);
+  if (u < 2 * w) {
+    *p = {-w + u, -d, 0}, *dir = {1, 0, 0};
+  } else if ((u -= 2 * w) < 2 * d) {
+    *p = {w, -d + u, 0}, *dir = {0, 1, 0};
+  } else if ((u -= 2 * d) < 2 * w) {
+    *p = {w - u, d, 0}, *dir = {-1, 0, 0};
+  } else {
+    u -= 2 * w;
+    *p = {-w, d - u, 0}, *dir = {0, -1, 0};
+  }
+}
+
+// Angle a - b wrapped to (-pi, pi].
+float AngleDiff(float a, float b) {
+  float d = std::fmod(a - b, 2 * kPi);
+  if (d > kPi) d -= 2 * kPi;
+  if (d <= -kPi) d += 2 * kPi;
+  return d;
+}
+
+// The patrol (see the header), all frames: the head's yaw and pitch are filtered state.
+std::vector<Eigen::Isometry3f> Patrol(const SceneLayout& scene, const TrajectoryOptions& o) {
+  std::vector<Eigen::Isometry3f> out;
+  const float w = scene.spec.width / 2 - 1.0f, d = scene.spec.depth / 2 - 1.0f;
+  std::vector<Vector3f> interest;
+  for (const Support& sup : scene.supports) {
+    const Vector2f c = (sup.min + sup.max) / 2;
+    interest.push_back({c.x(), c.y(), sup.z});
+  }
+  const float dt = static_cast<float>(1 / o.fps), alpha = 1 - std::exp(-dt / 0.8f);
+  float yaw = 0, pitch = 20 * kPi / 180;
+  for (int i = 0; i < o.frames; ++i) {
+    const float t = static_cast<float>(i / o.fps);
+    Vector3f p, dir;
+    LoopAt(w, d, static_cast<float>(o.speed) * t, &p, &dir);
+    p.z() = o.height + (o.shake ? 0.01f * std::sin(2 * kPi * t * 1.8f) : 0.f);
+    const float heading = std::atan2(dir.y(), dir.x());
+    // Default: ahead and inward (the room centre is on the left of a counter-clockwise loop).
+    float want_yaw = heading + 0.5f, want_pitch = 20 * kPi / 180;
+    float best = 4.0f;
+    for (const Vector3f& c : interest) {
+      const Vector2f to = (c - p).head<2>();
+      const float dist = to.norm();
+      const float a = std::atan2(to.y(), to.x());
+      if (dist < best && dist > 1.2f && std::abs(AngleDiff(a, heading)) < 100 * kPi / 180) {
+        best = dist;
+        want_yaw = a;
+        want_pitch = std::clamp(std::atan2(p.z() - c.z(), dist), 10 * kPi / 180, 35 * kPi / 180);
+      }
+    }
+    want_yaw += 15 * kPi / 180 * std::sin(2 * kPi * t / 6.f);
+    if (i == 0) yaw = want_yaw, pitch = want_pitch;
+    yaw += alpha * AngleDiff(want_yaw, yaw);
+    pitch += alpha * (want_pitch - pitch);
+    const Vector3f look(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch),
+                        -std::sin(pitch));
+    out.push_back(LookAt(p, p + look));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
                                               const TrajectoryOptions& o) {
+  if (o.kind == TrajectoryKind::kPatrol) return Patrol(scene, o);
   std::vector<Eigen::Isometry3f> out;
   const Tremor tremor(o.seed);
   const Support* table = nullptr;
@@ -156,23 +226,12 @@ std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
       T = LookAt(base + 1.1f * n + lateral * side + Vector3f(0, 0, 1.3f),
                  base + 0.6f * lateral * side + Vector3f(0, 0, look_z));
     } else {  // robot loop (rectangle, counter-clockwise) or orbit without tables
-      const float perim = 4 * (w + d);
-      float u = std::fmod(s, perim);
       Vector3f p, dir;
-      if (u < 2 * w) {
-        p = {-w + u, -d, 0}, dir = {1, 0, 0};
-      } else if ((u -= 2 * w) < 2 * d) {
-        p = {w, -d + u, 0}, dir = {0, 1, 0};
-      } else if ((u -= 2 * d) < 2 * w) {
-        p = {w - u, d, 0}, dir = {-1, 0, 0};
-      } else {
-        u -= 2 * w;
-        p = {-w, d - u, 0}, dir = {0, -1, 0};
-      }
+      LoopAt(w, d, s, &p, &dir);
       const float yaw = 0.5f + 0.6f * std::sin(2 * kPi * t / 7.f);  // look inward and around
       const Vector3f look = Eigen::AngleAxisf(yaw, Vector3f::UnitZ()) * dir;
       const float bob = o.shake ? 0.01f * std::sin(2 * kPi * t * 1.8f) : 0.f;
-      p.z() = 1.35f + bob;
+      p.z() = o.height + bob;
       T = LookAt(p, p + look + Vector3f(0, 0, -std::tan(20.f * kPi / 180.f)));
     }
     if (o.shake && kind != TrajectoryKind::kRobot) T = Perturb(T, tremor, t, 0.01f, 0.012f);

@@ -14,6 +14,7 @@
 #include "client/cli/dataset_frames.h"
 #include "client/cli/instances_command.h"
 #include "client/cli/stream_command.h"
+#include "client/cli/view_stats.h"
 #include "dataset/model_points.h"
 #include "dataset/reader.h"
 #include "nlohmann/json.hpp"
@@ -194,6 +195,8 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
   nlohmann::ordered_json single_detections = nlohmann::ordered_json::array();
   // Per obj_id: annotated, found by the map, found by the single view.
   std::map<int, std::array<int, 3>> per_object;
+  ViewRecall view_recall;
+  nlohmann::ordered_json truth_details = nlohmann::ordered_json::array();
   for (const std::string& dir : *scenes) {
     const std::string name = fs::path(dir).filename().string();
     absl::StatusOr<dataset::Sequence> sequence = dataset::LoadBopScene(dir);
@@ -297,6 +300,20 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
           << (sv >= 0 ? absl::StrCat(single.score.error[t].rotation_deg) : "") << "," << (sv >= 0)
           << "\n";
     }
+    const std::vector<ViewStats> views =
+        SceneViewStats(KeepEvery(sequence->frames, options.every, options.max_frames), n,
+                       options.max_view_distance);
+    for (int t = 0; t < n; ++t) {
+      const bool found = multi.score.match[t] >= 0;
+      view_recall.Add(views[t], found);
+      truth_details.push_back({{"scene", name},
+                               {"obj_id", truths[t].obj_id},
+                               {"frames_in_view", views[t].frames_in_view},
+                               {"median_distance", views[t].median_distance},
+                               {"min_distance", views[t].min_distance},
+                               {"median_pixels", views[t].median_pixels},
+                               {"found", found}});
+    }
     totals.truths += n;
     totals.frames += frames;
     totals.seconds += seconds;
@@ -312,6 +329,13 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
                         .c_str()
                   : kNoCells,
               totals.seconds > 0 ? totals.frames / totals.seconds : 0);
+  totals.seen = view_recall.Seen(options.min_view_frames);
+  totals.seen_found = view_recall.SeenFound(options.min_view_frames);
+  std::printf(
+      "Seen (in view in >= %d frames within %.1f m): %d of %d truths; found %d, recall %.3f\n\n"
+      "%s\n",
+      options.min_view_frames, options.max_view_distance, totals.seen, n, totals.seen_found,
+      Ratio(totals.seen_found, totals.seen), view_recall.Tables().c_str());
   std::printf(
       "| obj_id | annotated | found | recall | single-view found | single-view recall |\n"
       "|---|---|---|---|---|---|\n");
@@ -331,7 +355,13 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
         {"max_rotation_deg", options.score.max_rotation_deg},
         {"multi_view", MethodSummary(totals.multi_view, n, totals.mssd_available)},
     };
+    summary["multi_view"]["seen"] = {{"min_view_frames", options.min_view_frames},
+                                     {"max_view_distance", options.max_view_distance},
+                                     {"truths", totals.seen},
+                                     {"found", totals.seen_found},
+                                     {"recall", Ratio(totals.seen_found, totals.seen)}};
     summary["multi_view"]["detections"] = std::move(detections);
+    summary["truths_detail"] = std::move(truth_details);
     if (options.single_view) {
       summary["single_view"] = MethodSummary(totals.single_view, n, totals.mssd_available);
       summary["single_view"]["detections"] = std::move(single_detections);

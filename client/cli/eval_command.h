@@ -22,7 +22,9 @@
 // DATASET's train split and built with --train (skimap_main runs objects_command.h's
 // TrainAndBuild: `skimap objects train DATASET && skimap objects build`).
 //
-// Prints a Markdown table, one row per scene and the totals, then recall per object;
+// Prints a Markdown table, one row per scene and the totals, the recall of the truths seen
+// (in view in >= --min_view_frames frames within --max_view_distance, view_stats.h), recall
+// by viewing distance and by frames in view, then recall per object;
 // --csv writes one row per truth (both methods' matches and errors); --instances_dir
 // writes each scene's instances as `skimap instances --json` does: <scene>.json (the map's)
 // and <scene>.single_view.json (the baseline's), for any BOP-style scorer; --summary writes
@@ -55,6 +57,10 @@ struct EvalOptions {
   std::string summary;        // the totals and each instance's score and verdict, or empty
   bool keep_maps = false;
   bool single_view = true;  // also run the single-view baseline
+  // "Seen" truths (view_stats.h): in view in at least min_view_frames streamed frames within
+  // max_view_distance metres; their recall is printed beside the plain one.
+  int min_view_frames = 30;
+  double max_view_distance = 3.5;
   // The maps' visibility thresholds (RecognitionOptions); unset: the server's defaults.
   std::optional<double> min_instance_score, min_instance_fit, max_view_conflict;
   SingleViewOptions single_view_options;
@@ -68,6 +74,7 @@ struct MethodTotals {
 
 struct EvalTotals {
   int truths = 0, frames = 0;
+  int seen = 0, seen_found = 0;  // truths seen (min_view_frames), and found by the map
   double seconds = 0;  // streaming time, all scenes
   MethodTotals multi_view, single_view;
   bool mssd_available = true;  // every truth's object has a model file

@@ -16,6 +16,9 @@ ABSL_FLAG(std::string, detector, "", "objects train: ORB, SIFT, AKAZE or BRISK (
 ABSL_FLAG(std::string, name, "", "objects train: display name (default: objects.json)");
 ABSL_FLAG(int, frame_stride, 1, "objects train: use every n-th training frame");
 ABSL_FLAG(double, object_resolution, 0, "objects train: descriptor voxel in metres (0 = 0.01)");
+ABSL_FLAG(double, zoom_out, 0,
+          "objects train: synthetic zoom-outs up to this factor (1 = off; 0 = the server's "
+          "default)");
 ABSL_FLAG(bool, on_server, false, "objects train: the server reads DATASET from its disk");
 ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
@@ -54,6 +57,7 @@ v1::TrainingParams ParamsFromFlags() {
   if (absl::GetFlag(FLAGS_object_resolution) > 0) {
     p.set_resolution(absl::GetFlag(FLAGS_object_resolution));
   }
+  if (absl::GetFlag(FLAGS_zoom_out) > 0) p.set_zoom_out(absl::GetFlag(FLAGS_zoom_out));
   return p;
 }
 

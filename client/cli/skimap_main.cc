@@ -42,7 +42,9 @@ ABSL_FLAG(std::string, server, "localhost:50051", "skimapd address host:port");
 ABSL_FLAG(std::string, map, "", "map id (maps/ID)");
 ABSL_FLAG(std::string, o, "", "output file");
 ABSL_FLAG(double, fps, 0, "stream: frames per second (0 = as fast as the server takes them)");
-ABSL_FLAG(double, resolution, 0.05, "maps create / stream: voxel size in metres");
+ABSL_FLAG(double, resolution, 0,
+          "maps create / stream / eval: voxel size in metres (0 = the command's default: "
+          "maps create and stream 0.05, eval 0.02)");
 ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
 ABSL_FLAG(std::string, depth_encoding, "zstd",
           "stream: depth on the wire, lossless: zstd (the fastest for the server, the default), "
@@ -65,6 +67,10 @@ ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this 
 ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
 ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
 ABSL_FLAG(bool, keep_maps, false, "eval: keep the eval_<scene> maps");
+ABSL_FLAG(int, min_view_frames, 30,
+          "eval: a truth is seen when in view (>= 100 visible pixels, within "
+          "--max_view_distance) in at least this many streamed frames");
+ABSL_FLAG(double, max_view_distance, 3.5, "eval: metres; see --min_view_frames");
 ABSL_FLAG(double, min_instance_score, -1,
           "eval: the maps' min_instance_score (instances scoring less are not listed; -1 = "
           "the server's default; 0 lists all, to sweep the threshold from --summary)");
@@ -94,6 +100,12 @@ namespace {
 
 using skimap::client::MapClient;
 namespace v1 = skimap::v1;
+
+// --resolution, or the command's default when it is 0 (not given).
+double ResolutionOr(double command_default) {
+  const double r = absl::GetFlag(FLAGS_resolution);
+  return r != 0 ? r : command_default;
+}
 
 int Fail(const absl::Status& s) {
   std::fprintf(stderr, "skimap: %s\n", s.ToString().c_str());
@@ -153,7 +165,7 @@ int Maps(MapClient& client, const std::vector<std::string>& args) {
   if (verb == "create") {
     v1::CreateMapRequest request;
     request.set_map_id(id);
-    request.mutable_options()->set_resolution(absl::GetFlag(FLAGS_resolution));
+    request.mutable_options()->set_resolution(ResolutionOr(0.05));
     absl::StatusOr<v1::Map> map = client.CreateMap(request);
     if (!map.ok()) return Fail(map.status());
     PrintMap(*map);
@@ -269,7 +281,8 @@ int main(int argc, char** argv) {
       "       skimap eval DATASET [--scenes=A,B] [--every=N] [--max_frames=N] "
       "[--resolution=0.02] [--max_translation_mm=30] [--max_rotation_deg=10] [--csv=FILE] "
       "[--instances_dir=DIR] [--summary=FILE] [--single_view=false] [--keep_maps] [--train] "
-      "[--min_instance_score=S] [--min_instance_fit=F] [--max_view_conflict=V]");
+      "[--min_instance_score=S] [--min_instance_fit=F] [--max_view_conflict=V] "
+      "[--min_view_frames=30] [--max_view_distance=3.5]");
   std::vector<std::string> arg_storage;
   std::vector<char*> normalized = NormalizeFlagNames(argc, argv, &arg_storage);
   std::vector<char*> positional =
@@ -301,7 +314,8 @@ int main(int argc, char** argv) {
     options.scenes = absl::GetFlag(FLAGS_scenes);
     options.every = absl::GetFlag(FLAGS_every);
     options.max_frames = absl::GetFlag(FLAGS_max_frames);
-    options.resolution = absl::GetFlag(FLAGS_resolution);
+    // eval's maps default to 2 cm (the documented configuration), not stream's 5 cm.
+    options.resolution = ResolutionOr(0.02);
     options.score.max_translation = absl::GetFlag(FLAGS_max_translation_mm) / 1000;
     options.score.max_rotation_deg = absl::GetFlag(FLAGS_max_rotation_deg);
     options.csv = absl::GetFlag(FLAGS_csv);
@@ -309,6 +323,12 @@ int main(int argc, char** argv) {
     options.single_view = absl::GetFlag(FLAGS_single_view);
     options.instances_dir = absl::GetFlag(FLAGS_instances_dir);
     options.summary = absl::GetFlag(FLAGS_summary);
+    options.min_view_frames = absl::GetFlag(FLAGS_min_view_frames);
+    options.max_view_distance = absl::GetFlag(FLAGS_max_view_distance);
+    if (options.min_view_frames < 0 || !(options.max_view_distance > 0)) {
+      return Fail(absl::InvalidArgumentError(
+          "--min_view_frames must be >= 0 and --max_view_distance > 0"));
+    }
     if (const double v = absl::GetFlag(FLAGS_min_instance_score); v != -1) {
       options.min_instance_score = v;
     }
@@ -346,7 +366,7 @@ int main(int argc, char** argv) {
     skimap::client::StreamOptions options;
     options.map_id = absl::GetFlag(FLAGS_map);
     options.fps = absl::GetFlag(FLAGS_fps);
-    options.resolution = absl::GetFlag(FLAGS_resolution);
+    options.resolution = ResolutionOr(0.05);
     options.window = absl::GetFlag(FLAGS_window);
     const std::string recognition = absl::GetFlag(FLAGS_recognition);
     if (recognition == "newest" || recognition == "every_frame") {

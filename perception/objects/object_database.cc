@@ -57,6 +57,7 @@ absl::StatusOr<ObjectDatabaseParams> ResolveParams(const ObjectDatabaseParams& i
   }
   if (p.rgb_stride_px < 1 || p.rgb_stride_px > 64)
     return Bad("rgb_stride_px", p.rgb_stride_px, "in 1..64");
+  if (!(p.zoom_out >= 1 && p.zoom_out <= 8)) return Bad("zoom_out", p.zoom_out, "in 1..8");
   return p;
 }
 

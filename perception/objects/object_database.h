@@ -41,6 +41,10 @@ struct ObjectDatabaseParams {
   int top_n = 3;                                // forest candidates verified per descriptor, >= 1
   int mask_erosion_px = 2;                      // training masks are eroded by this much, 0..32
   int rgb_stride_px = 2;  // every n-th pixel (both axes) feeds the RGB volume, >= 1
+  // Synthetic zoom-outs: each training view is also described shrunk by sqrt(2), 2, ...
+  // up to this factor (1 = off, at most 8), so that the forest knows an object's features
+  // as a camera sees them from that many times the training distance (docs/objects.md).
+  double zoom_out = 1;
   friend bool operator==(const ObjectDatabaseParams&, const ObjectDatabaseParams&) = default;
 };
 

@@ -67,6 +67,30 @@ absl::StatusOr<std::unique_ptr<ObjectTrainer>> ObjectTrainer::Create(
       new ObjectTrainer(obj_id, std::move(name), params, *std::move(extractor)));
 }
 
+absl::Status ObjectTrainer::AddDescriptors(const TrainingFrame& f, const cv::Mat& mask,
+                                           FrameContribution* out) {
+  absl::StatusOr<Features> features = extractor_->Extract(f.bgr, mask);
+  if (!features.ok()) return features.status();
+  const Eigen::Isometry3d T_c2m = f.T_m2c.inverse();
+  const Grid& grid = descriptors_->grid();
+  const DescriptorLayout& layout = extractor_->layout();
+  out->keypoints += static_cast<int>(features->keypoints.size());
+  for (size_t i = 0; i < features->keypoints.size(); ++i) {
+    const cv::Point2f& pt = features->keypoints[i].pt;
+    const int u = static_cast<int>(std::lround(pt.x)), v = static_cast<int>(std::lround(pt.y));
+    if (u < 0 || v < 0 || u >= f.depth.cols || v >= f.depth.rows) continue;
+    const double z = DepthAt(f, u, v);
+    if (z <= 0) continue;
+    const Eigen::Vector3d pc((pt.x - f.K.cx) * z / f.K.fx, (pt.y - f.K.cy) * z / f.K.fy, z);
+    const Eigen::Vector3d pm = T_c2m * pc;
+    VoxelKey key;
+    if (!grid.ToKey(pm.x(), pm.y(), pm.z(), &key)) continue;
+    descriptors_->IntegrateKey(key, DescriptorVoxel::One(layout, features->descriptors.Row(i)));
+    ++out->descriptors;
+  }
+  return absl::OkStatus();
+}
+
 ObjectTrainer::ObjectTrainer(int obj_id, std::string name, const ObjectDatabaseParams& params,
                              std::unique_ptr<FeatureExtractor> extractor)
     : obj_id_(obj_id),
@@ -85,28 +109,32 @@ absl::StatusOr<FrameContribution> ObjectTrainer::AddFrame(const TrainingFrame& f
     const int r = params_.mask_erosion_px;
     cv::erode(f.mask, mask, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
   }
-  absl::StatusOr<Features> features = extractor_->Extract(f.bgr, mask);
-  if (!features.ok()) return features.status();
-
-  const Eigen::Isometry3d T_c2m = f.T_m2c.inverse();
-  const Grid& grid = descriptors_->grid();
-  const DescriptorLayout& layout = extractor_->layout();
   FrameContribution out;
-  out.keypoints = static_cast<int>(features->keypoints.size());
-  for (size_t i = 0; i < features->keypoints.size(); ++i) {
-    const cv::Point2f& pt = features->keypoints[i].pt;
-    const int u = static_cast<int>(std::lround(pt.x)), v = static_cast<int>(std::lround(pt.y));
-    if (u < 0 || v < 0 || u >= f.depth.cols || v >= f.depth.rows) continue;
-    const double z = DepthAt(f, u, v);
-    if (z <= 0) continue;
-    const Eigen::Vector3d pc((pt.x - f.K.cx) * z / f.K.fx, (pt.y - f.K.cy) * z / f.K.fy, z);
-    const Eigen::Vector3d pm = T_c2m * pc;
-    VoxelKey key;
-    if (!grid.ToKey(pm.x(), pm.y(), pm.z(), &key)) continue;
-    descriptors_->IntegrateKey(key, DescriptorVoxel::One(layout, features->descriptors.Row(i)));
-    ++out.descriptors;
+  if (absl::Status s = AddDescriptors(f, mask, &out); !s.ok()) return s;
+  // Zoom-outs: the view shrunk by sqrt(2)^k (colour by area averaging, as a sensor's pixels
+  // integrate a farther scene; mask and depth by nearest pixel, so no depth is invented).
+  for (double s = std::sqrt(2.0); s <= params_.zoom_out + 1e-9; s *= std::sqrt(2.0)) {
+    const cv::Size size(static_cast<int>(std::lround(f.bgr.cols / s)),
+                        static_cast<int>(std::lround(f.bgr.rows / s)));
+    if (size.width < 16 || size.height < 16) break;
+    TrainingFrame z;
+    cv::resize(f.bgr, z.bgr, size, 0, 0, cv::INTER_AREA);
+    cv::resize(f.depth, z.depth, size, 0, 0, cv::INTER_NEAREST);
+    cv::Mat zmask;
+    cv::resize(mask, zmask, size, 0, 0, cv::INTER_NEAREST);
+    if (cv::countNonZero(zmask) == 0) break;
+    z.depth_scale = f.depth_scale;
+    z.K = f.K;
+    z.K.fx = f.K.fx / s, z.K.fy = f.K.fy / s;
+    z.K.cx = (f.K.cx + 0.5) / s - 0.5, z.K.cy = (f.K.cy + 0.5) / s - 0.5;
+    z.T_m2c = f.T_m2c;
+    FrameContribution zoomed;
+    if (absl::Status st = AddDescriptors(z, zmask, &zoomed); !st.ok()) return st;
+    out.keypoints += zoomed.keypoints;
+    out.descriptors += zoomed.descriptors;
   }
 
+  const Eigen::Isometry3d T_c2m = f.T_m2c.inverse();
   VoxelBatch<RGBWeightedVoxel> batch;
   const int step = params_.rgb_stride_px;
   for (int v = 0; v < f.depth.rows; v += step) {
@@ -128,7 +156,8 @@ absl::StatusOr<FrameContribution> ObjectTrainer::AddFrame(const TrainingFrame& f
   ++stats_.frames;
   stats_.features += out.keypoints;
   stats_.descriptors += out.descriptors;
-  stats_.raw_descriptor_bytes += static_cast<int64_t>(out.descriptors) * layout.RowBytes();
+  stats_.raw_descriptor_bytes +=
+      static_cast<int64_t>(out.descriptors) * extractor_->layout().RowBytes();
   return out;
 }
 

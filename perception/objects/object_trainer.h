@@ -8,8 +8,10 @@
 //
 // Per frame: features are detected inside the (eroded) mask; each keypoint with valid
 // depth is back-projected (pinhole, pixel centres at integer coordinates), mapped to the
-// object frame with inv(T_m2c) and fused into the voxel holding it. Masked depth pixels
-// (every rgb_stride_px-th) feed the RGB volume.
+// object frame with inv(T_m2c) and fused into the voxel holding it. With params.zoom_out
+// > 1 the same is done on the view shrunk by sqrt(2), 2, ... up to zoom_out (the object as
+// seen from farther away). Masked depth pixels (every rgb_stride_px-th, full view only)
+// feed the RGB volume.
 //
 // Thread safety: not thread safe (one trainer per object; trainers of different objects
 // may run concurrently).
@@ -46,6 +48,7 @@ struct TrainingFrame {
 struct FrameContribution {
   int keypoints = 0;    // detected inside the mask
   int descriptors = 0;  // fused (keypoint had valid depth)
+  // Both count the zoom-outs' keypoints too.
 };
 
 // A trained object: its model plus the raw descriptors of every voxel (same order as
@@ -78,6 +81,8 @@ class ObjectTrainer {
   absl::StatusOr<TrainedObject> Finish(int threads = 1) const;
 
  private:
+  // Detects features of `f` inside `mask` and fuses the ones with depth; adds to *out.
+  absl::Status AddDescriptors(const TrainingFrame& f, const cv::Mat& mask, FrameContribution* out);
   ObjectTrainer(int obj_id, std::string name, const ObjectDatabaseParams& params,
                 std::unique_ptr<FeatureExtractor> extractor);
 

@@ -51,6 +51,7 @@ absl::StatusOr<objects::ObjectDatabaseParams> ApplyTrainingParams(
   if (api.has_resolution()) p.resolution = api.resolution();
   if (api.has_bandwidth()) p.mean_shift.bandwidth = api.bandwidth();
   if (api.has_mask_erosion_px()) p.mask_erosion_px = static_cast<int>(api.mask_erosion_px());
+  if (api.has_zoom_out()) p.zoom_out = api.zoom_out();
   if (!api.detector().empty() && !absl::EqualsIgnoreCase(api.detector(), base.features.detector)) {
     // Detector defaults follow the new detector unless given.
     if (!api.has_bandwidth()) p.mean_shift.bandwidth = 0;
@@ -93,6 +94,7 @@ absl::Status CheckSameTraining(const objects::ObjectDatabaseParams& t,
     return differs("bandwidth", t.mean_shift.bandwidth, db.mean_shift.bandwidth);
   if (t.mask_erosion_px != db.mask_erosion_px)
     return differs("mask_erosion_px", t.mask_erosion_px, db.mask_erosion_px);
+  if (t.zoom_out != db.zoom_out) return differs("zoom_out", t.zoom_out, db.zoom_out);
   return absl::OkStatus();
 }
 
@@ -103,6 +105,7 @@ v1::TrainingParams ToApiTrainingParams(const objects::ObjectDatabaseParams& p) {
   out.set_resolution(p.resolution);
   out.set_bandwidth(p.mean_shift.bandwidth);
   out.set_mask_erosion_px(p.mask_erosion_px);
+  out.set_zoom_out(p.zoom_out);
   return out;
 }
 

@@ -80,7 +80,8 @@ std::map<std::string, std::string> ParamsToText(const ObjectDatabaseParams& p) {
           {"verify_threshold", D(p.verify_threshold)},
           {"top_n", absl::StrCat(p.top_n)},
           {"mask_erosion_px", absl::StrCat(p.mask_erosion_px)},
-          {"rgb_stride_px", absl::StrCat(p.rgb_stride_px)}};
+          {"rgb_stride_px", absl::StrCat(p.rgb_stride_px)},
+          {"zoom_out", D(p.zoom_out)}};
 }
 
 absl::StatusOr<ObjectDatabaseParams> ParamsFromText(const std::map<std::string, std::string>& t) {
@@ -109,6 +110,9 @@ absl::StatusOr<ObjectDatabaseParams> ParamsFromText(const std::map<std::string, 
   r.Get("top_n", &p.top_n);
   r.Get("mask_erosion_px", &p.mask_erosion_px);
   r.Get("rgb_stride_px", &p.rgb_stride_px);
+  if (!r.status().ok()) return r.status();
+  p.zoom_out = 1;  // databases written before zoom-outs have none
+  if (t.contains("zoom_out")) r.Get("zoom_out", &p.zoom_out);
   if (!r.status().ok()) return r.status();
   p.mean_shift.kernel = static_cast<MeanShiftKernel>(kernel);
   return p;

@@ -40,7 +40,7 @@ struct RecognitionConfig {
   bool enabled = false;
   std::vector<int> obj_ids;  // empty: every object of the classifier
   double labels_resolution = 0.005, hypotheses_resolution = 0.03, instances_resolution = 0.05;
-  double sphere_distance = 1.0;  // metres along the optical axis; 0 = the scene rule
+  double sphere_distance = 0;  // metres along the optical axis; 0 = the scene rule
   double sphere_radius = 0.6;
   int triples = 2000;
   double hough_bin = 0.02;
