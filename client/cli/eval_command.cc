@@ -144,6 +144,7 @@ void AddDetections(const std::string& scene, const std::vector<v1::Instance>& in
                     {"score", instances[i].score()},
                     {"fit", instances[i].fit()},
                     {"view_conflict", instances[i].view_conflict()},
+                    {"score_scale", instances[i].score_scale()},
                     {"true_positive", static_cast<bool>(matched[i])}});
   }
 }

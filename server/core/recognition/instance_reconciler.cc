@@ -397,6 +397,14 @@ v1::Instance ToProto(const Instance& i, const recognition::RecognitionModel* mod
     const int index = model->FindObject(static_cast<int>(i.object_id));
     if (index >= 0) out.set_object_name(model->object(index).name);
   }
+  out.set_score_scale(1);
+  if (model != nullptr) {
+    const int index = model->FindObject(static_cast<int>(i.object_id));
+    if (index >= 0) {
+      const double area = model->object(index).surface_area;
+      out.set_score_scale(InstanceVisibility{.min_score = 1}.MinScore(area));
+    }
+  }
   v1::Pose* pose = out.mutable_pose();
   pose->mutable_rotation()->set_w(i.q[0]);
   pose->mutable_rotation()->set_x(i.q[1]);

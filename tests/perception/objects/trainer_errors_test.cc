@@ -66,6 +66,33 @@ TEST(TrainerErrorsTest, BadParametersNameTheField) {
   check([](ObjectDatabaseParams& p) { p.features.max_features = 0; }, "max_features");
   check([](ObjectDatabaseParams& p) { p.top_n = 0; }, "top_n");
   check([](ObjectDatabaseParams& p) { p.rgb_stride_px = 0; }, "rgb_stride_px");
+  check([](ObjectDatabaseParams& p) { p.zoom_out = 0.5; }, "zoom_out");
+  check([](ObjectDatabaseParams& p) { p.zoom_out = 9; }, "zoom_out");
+  check([](ObjectDatabaseParams& p) { p.zoom_out = NAN; }, "zoom_out");
+}
+
+// Zoom-outs describe the view again shrunk by sqrt(2), 2, ...: more descriptors from the
+// same frame, each fused at the point its keypoint's depth gives (the same plane).
+TEST(TrainerErrorsTest, ZoomOutsAddDescriptorsOnTheSameSurface) {
+  ObjectDatabaseParams p;
+  p.features.detector = "ORB";
+  absl::StatusOr<ObjectDatabaseParams> plain = ResolveParams(p);
+  p.zoom_out = 2;
+  absl::StatusOr<ObjectDatabaseParams> zoomed = ResolveParams(p);
+  ASSERT_TRUE(plain.ok() && zoomed.ok());
+  auto a = ObjectTrainer::Create(1, "plane", *plain);
+  auto b = ObjectTrainer::Create(1, "plane", *zoomed);
+  ASSERT_TRUE(a.ok() && b.ok());
+  const TrainingFrame f = PlaneFrame();
+  absl::StatusOr<FrameContribution> ca = (*a)->AddFrame(f);
+  absl::StatusOr<FrameContribution> cb = (*b)->AddFrame(f);
+  ASSERT_TRUE(ca.ok() && cb.ok());
+  EXPECT_GT(cb->descriptors, ca->descriptors * 5 / 4);  // sqrt(2) and 2 add 20-60 %
+  // Every descriptor voxel lies on the plane z = 0.6 m (the model frame is the camera's).
+  (*b)->descriptor_volume().ForEach([&](const VoxelKey& k, const DescriptorVoxel&) {
+    const Point3 c = (*b)->descriptor_volume().grid().Center(k);
+    EXPECT_NEAR(c.z, 0.6, 0.011);
+  });
 }
 
 TEST(TrainerErrorsTest, MissingDepthEmptyMaskAndWrongTypesAreRejected) {
