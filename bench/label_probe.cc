@@ -17,9 +17,9 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "dataset/reader.h"
 #include "opencv2/features2d.hpp"
 #include "opencv2/imgproc.hpp"
-#include "dataset/reader.h"
 #include "perception/objects/features.h"
 #include "perception/recognition/label_observer.h"
 #include "perception/recognition/recognition_model.h"
@@ -28,7 +28,8 @@
 ABSL_FLAG(std::string, db, "", "object database (a skimapd data dir's objects.sqlite)");
 ABSL_FLAG(std::string, scene, "", "BOP scene folder");
 ABSL_FLAG(int, every, 10, "probe every n-th frame");
-ABSL_FLAG(double, alt_contrast, 0.02, "also count SIFT keypoints at this contrast threshold (3000 max)");
+ABSL_FLAG(double, alt_contrast, 0.02,
+          "also count SIFT keypoints at this contrast threshold (3000 max)");
 
 namespace {
 
@@ -48,10 +49,12 @@ struct Bin {
 
 int main(int argc, char** argv) {
   absl::ParseCommandLine(argc, argv);
-  absl::StatusOr<objects::ObjectDatabase> loaded = objects::LoadObjectDatabase(absl::GetFlag(FLAGS_db));
+  absl::StatusOr<objects::ObjectDatabase> loaded =
+      objects::LoadObjectDatabase(absl::GetFlag(FLAGS_db));
   if (!loaded.ok()) Die(loaded.status().ToString());
   auto db = std::make_shared<const objects::ObjectDatabase>(*std::move(loaded));
-  absl::StatusOr<recognition::RecognitionModel> model = recognition::RecognitionModel::Create(db, {});
+  absl::StatusOr<recognition::RecognitionModel> model =
+      recognition::RecognitionModel::Create(db, {});
   if (!model.ok()) Die(model.status().ToString());
   recognition::LabelObserver observer(*model);
   absl::StatusOr<std::unique_ptr<objects::FeatureExtractor>> extractor =
@@ -92,7 +95,8 @@ int main(int argc, char** argv) {
       cv::resize(img->rgb, up, {}, 2, 2, cv::INTER_LINEAR);
       cv::SIFT::create(4000, 3, absl::GetFlag(FLAGS_alt_contrast))->detect(up, alt);
       for (cv::KeyPoint& k : alt) k.pt = (k.pt - cv::Point2f(0.5f, 0.5f)) * 0.5f;
-      alt_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+      alt_ms +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
       alt_count += alt.size();
     }
     ++frames;
@@ -136,8 +140,10 @@ int main(int argc, char** argv) {
               db->params().features.max_features);
   std::printf("Observe %.1f ms per frame; upsampled detection alone %.1f ms, %.0f keypoints\n",
               observe_ms / frames, alt_ms / frames, alt_count / frames);
-  std::printf("| distance (m) | object views | visible px | keypoints in mask | labels in mask | "
-              "right object | ... within 2 cm of its class point | ... 4 cm | keypoints in mask, 2x upsampled |\n|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| distance (m) | object views | visible px | keypoints in mask | labels in mask | "
+      "right object | ... within 2 cm of its class point | ... 4 cm | keypoints in mask, 2x "
+      "upsampled |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [k, b] : bins) {
     const double n = std::max(b.samples, 1);
     std::printf("| %.1f-%.1f | %d | %.0f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", k * 0.5,

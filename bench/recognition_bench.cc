@@ -43,8 +43,8 @@
 #include "perception/objects/training.h"
 #include "perception/recognition/instance_estimator.h"
 #include "server/core/maps/map_service.h"
-#include "server/core/recognition/instance_queries.h"
 #include "server/core/objects/object_database_io.h"
+#include "server/core/recognition/instance_queries.h"
 
 ABSL_FLAG(std::string, dataset, "", "BOP dataset root (train/ and test/ splits)");
 ABSL_FLAG(std::string, detector, "ORB", "feature detector of the object database");
@@ -193,7 +193,8 @@ Run Stream(std::shared_ptr<const objects::ObjectDatabase> db,
     v1::ListInstancesRequest list;
     list.set_map("maps/scene");
     list.set_page_size(1000);
-    absl::StatusOr<v1::ListInstancesResponse> r = server::InstanceQueries(&service).ListInstances(list);
+    absl::StatusOr<v1::ListInstancesResponse> r =
+        server::InstanceQueries(&service).ListInstances(list);
     if (!r.ok()) Die(r.status().ToString());
     run.instances.assign(r->instances().begin(), r->instances().end());
   }

@@ -122,23 +122,23 @@ int main(int argc, char** argv) {
     const bool stats = i % absl::GetFlag(FLAGS_every) == 0;
     const recognition::Sphere sphere = recognition::ActiveSphere(frame->pose, *obs, 0, 0.6);
     std::vector<std::vector<recognition::LabelMatch>> matches(model->num_objects());
-    labels.RadiusSearch(Point3{sphere.centre.x(), sphere.centre.y(), sphere.centre.z()},
-                        sphere.radius, [&](const VoxelKey& k, const MultiLabelVoxel& voxel) {
-                          const MultiLabelVoxel::Entry e = voxel.Heaviest();
-                          const Point3 c = labels.grid().Center(k);
-                          Eigen::Vector3f v;
-                          int o;
-                          if (!model->ClassPoint(e.label, &v, &o)) return;
-                          matches[o].push_back({Eigen::Vector3f(c.x, c.y, c.z), v,
-                                                static_cast<float>(e.count)});
-                        });
+    labels.RadiusSearch(
+        Point3{sphere.centre.x(), sphere.centre.y(), sphere.centre.z()}, sphere.radius,
+        [&](const VoxelKey& k, const MultiLabelVoxel& voxel) {
+          const MultiLabelVoxel::Entry e = voxel.Heaviest();
+          const Point3 c = labels.grid().Center(k);
+          Eigen::Vector3f v;
+          int o;
+          if (!model->ClassPoint(e.label, &v, &o)) return;
+          matches[o].push_back({Eigen::Vector3f(c.x, c.y, c.z), v, static_cast<float>(e.count)});
+        });
     std::mt19937_64 rng(i * 0x9e3779b97f4a7c15ull + 1);
     for (int o = 0; o < model->num_objects(); ++o) {
       if (matches[o].size() < 3) continue;
       for (const recognition::PoseEstimate& e :
            recognition::VotePoses(matches[o], model->object(o), sphere, voting, rng)) {
-        all_hyps[o].push_back({e.pose.translation(), Eigen::Quaternionf(e.pose.linear()),
-                               e.score, static_cast<uint64_t>(i + 1)});
+        all_hyps[o].push_back({e.pose.translation(), Eigen::Quaternionf(e.pose.linear()), e.score,
+                               static_cast<uint64_t>(i + 1)});
       }
     }
     if (!stats) continue;
@@ -168,21 +168,24 @@ int main(int argc, char** argv) {
       }
     }
   }
-  std::printf("%d frames, %.0f labels per frame; voting: %d triples, bin %.3f, consistency "
-              "%.3f, min side %.3f, inlier %.3f\n",
-              n, labels_per_frame / std::max(n, 1), voting.triples, voting.bin, voting.consistency,
-              voting.min_side, voting.inlier_distance);
-  std::printf("| distance (m) | object views | in the sphere | its matches in the sphere | "
-              "inliers under the true pose | views with a true hypothesis |\n"
-              "|---|---|---|---|---|---|\n");
+  std::printf(
+      "%d frames, %.0f labels per frame; voting: %d triples, bin %.3f, consistency "
+      "%.3f, min side %.3f, inlier %.3f\n",
+      n, labels_per_frame / std::max(n, 1), voting.triples, voting.bin, voting.consistency,
+      voting.min_side, voting.inlier_distance);
+  std::printf(
+      "| distance (m) | object views | in the sphere | its matches in the sphere | "
+      "inliers under the true pose | views with a true hypothesis |\n"
+      "|---|---|---|---|---|---|\n");
   for (const auto& [k, b] : bins) {
     const double s = std::max(b.samples, 1);
     std::printf("| %.1f-%.1f | %d | %.2f | %.0f | %.1f | %.2f |\n", k * 0.5, k * 0.5 + 0.5,
                 b.samples, b.in_sphere / s, b.matches / s, b.inliers / s, b.found / s);
   }
   // The map's instance step, once at the end, around each truth.
-  std::printf("\n| obj_id | hypotheses within 30 cm | ... within 3 cm / 10 deg of the truth | "
-              "best estimate's error (mm, deg), support, frames |\n|---|---|---|---|\n");
+  std::printf(
+      "\n| obj_id | hypotheses within 30 cm | ... within 3 cm / 10 deg of the truth | "
+      "best estimate's error (mm, deg), support, frames |\n|---|---|---|---|\n");
   const dataset::Frame& f0 = seq->frames.front();
   for (const dataset::ObjectAnnotation& a : f0.objects) {
     const int o = model->FindObject(a.obj_id);

@@ -109,13 +109,10 @@ absl::Status WriteRoot(const GeneratorOptions& o, const dataset::CameraInfo& cam
   if (auto s = dataset::WriteModelsInfo(o.out_dir + "/models/models_info.json", infos); !s.ok()) {
     return s;
   }
-  nlohmann::ordered_json info = {{"generator", "skimap-sim"},
-                                 {"preset", o.preset},
-                                 {"seed", o.seed},
-                                 {"depth_noise", o.depth_noise},
-                                 {"noise", o.noise},
-                                 {"motion_blur", o.motion_blur},
-                                 {"speed_scale", o.speed_scale}};
+  nlohmann::ordered_json info = {
+      {"generator", "skimap-sim"},    {"preset", o.preset}, {"seed", o.seed},
+      {"depth_noise", o.depth_noise}, {"noise", o.noise},   {"motion_blur", o.motion_blur},
+      {"speed_scale", o.speed_scale}};
   if (auto s = dataset::internal::WriteTextFile(o.out_dir + "/objects.json", names.dump(1) + "\n");
       !s.ok()) {
     return s;

@@ -69,8 +69,10 @@ absl::StatusOr<dataset::Frame> DoFrame(const SequenceSpec& s, int i, Worker& w,
   std::mt19937_64 rng(s.seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(i) * 7919 + 1);
   if (s.exposure_drift > 0 || s.exposure_jitter > 0) {
     const double phase = static_cast<double>(s.seed % 6283) / 1000.0;
-    const double jitter = s.exposure_jitter * (2.0 * static_cast<double>(rng() >> 11) / 9007199254740992.0 - 1);
-    const double gain = 1 + s.exposure_drift * std::sin(2 * M_PI * (i / s.fps) / 5.0 + phase) + jitter;
+    const double jitter =
+        s.exposure_jitter * (2.0 * static_cast<double>(rng() >> 11) / 9007199254740992.0 - 1);
+    const double gain =
+        1 + s.exposure_drift * std::sin(2 * M_PI * (i / s.fps) / 5.0 + phase) + jitter;
     w.out.bgr.convertTo(w.out.bgr, -1, gain);
   }
   AddColourNoise(w.out.bgr, s.colour_noise, rng);

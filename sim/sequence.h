@@ -34,7 +34,7 @@ struct SequenceSpec {
   // Auto-exposure: frame i's colour is scaled by 1 + exposure_drift * sin(2 pi t / 5 s + phase)
   // + U(-exposure_jitter, exposure_jitter) (phase and jitter from the seed); 0, 0: fixed.
   float exposure_drift = 0, exposure_jitter = 0;
-  int motion_blur = 0;        // sub-frames (0/1 = off)
+  int motion_blur = 0;  // sub-frames (0/1 = off)
   double fps = 30;
   uint64_t seed = 1;  // noise stream: seeded per frame from this
 };

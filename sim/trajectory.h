@@ -28,10 +28,10 @@ struct TrajectoryOptions {
   TrajectoryKind kind = TrajectoryKind::kOrbit;
   int frames = 300;
   double fps = 30;
-  double speed = 0.35;  // m/s along the path (hand-held ~0.3, robot ~0.5)
-  bool shake = true;    // hand-held tremor (1 cm, 0.7 deg); robot, patrol: head bob
+  double speed = 0.35;   // m/s along the path (hand-held ~0.3, robot ~0.5)
+  bool shake = true;     // hand-held tremor (1 cm, 0.7 deg); robot, patrol: head bob
   float height = 1.35f;  // robot, patrol: camera height above the floor, metres
-  uint64_t seed = 1;    // phases of the tremor
+  uint64_t seed = 1;     // phases of the tremor
 };
 
 // Camera pose looking from `eye` at `target` with world z up. REQUIRES: eye != target and
@@ -48,9 +48,9 @@ Eigen::Isometry3f LookAt(const Eigen::Vector3f& eye, const Eigen::Vector3f& targ
 // Patrol: a mobile robot's head camera (SkiMap++'s setting): the base drives the loop 1 m
 // from the walls at `speed`, the camera `height` above the floor; the head turns towards the
 // nearest support centre (table top, shelf board or floor area) 1.2-4 m away that lies less
-// than 100 deg off the driving direction, tilting down to its height (10-35 deg), with a slow +-15 deg
-// pan scan around it; with none in reach it looks ahead and inward, 20 deg down. Head yaw
-// and pitch follow their targets with a 0.8 s time constant (a head does not jump).
+// than 100 deg off the driving direction, tilting down to its height (10-35 deg), with a slow +-15
+// deg pan scan around it; with none in reach it looks ahead and inward, 20 deg down. Head yaw and
+// pitch follow their targets with a 0.8 s time constant (a head does not jump).
 std::vector<Eigen::Isometry3f> MakeTrajectory(const SceneLayout& scene,
                                               const TrajectoryOptions& options);
 

@@ -75,7 +75,7 @@ struct MethodTotals {
 struct EvalTotals {
   int truths = 0, frames = 0;
   int seen = 0, seen_found = 0;  // truths seen (min_view_frames), and found by the map
-  double seconds = 0;  // streaming time, all scenes
+  double seconds = 0;            // streaming time, all scenes
   MethodTotals multi_view, single_view;
   bool mssd_available = true;  // every truth's object has a model file
 };

@@ -326,8 +326,8 @@ int main(int argc, char** argv) {
     options.min_view_frames = absl::GetFlag(FLAGS_min_view_frames);
     options.max_view_distance = absl::GetFlag(FLAGS_max_view_distance);
     if (options.min_view_frames < 0 || !(options.max_view_distance > 0)) {
-      return Fail(absl::InvalidArgumentError(
-          "--min_view_frames must be >= 0 and --max_view_distance > 0"));
+      return Fail(
+          absl::InvalidArgumentError("--min_view_frames must be >= 0 and --max_view_distance > 0"));
     }
     if (const double v = absl::GetFlag(FLAGS_min_instance_score); v != -1) {
       options.min_instance_score = v;

@@ -88,7 +88,7 @@ std::string ViewRecall::Tables() const {
       ++n;
       f += found[i];
     }
-    const std::string label = b == 0 ? "0"
+    const std::string label = b == 0   ? "0"
                               : b == 5 ? "300+"
                                        : absl::StrFormat("%d-%d", bounds[b], bounds[b + 1] - 1);
     out += Row(label, n, f);

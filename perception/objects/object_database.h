@@ -44,7 +44,7 @@ struct ObjectDatabaseParams {
   // Synthetic zoom-outs: each training view is also described shrunk by sqrt(2), 2, ...
   // up to this factor (1 = off, at most 8), so that the forest knows an object's features
   // as a camera sees them from that many times the training distance (docs/objects.md).
-  double zoom_out = 1;
+  double zoom_out = 4;
   friend bool operator==(const ObjectDatabaseParams&, const ObjectDatabaseParams&) = default;
 };
 

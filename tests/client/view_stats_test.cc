@@ -37,7 +37,8 @@ TEST(ViewStatsTest, CountsFramesInViewWithinTheDistanceAndEnoughPixels) {
 }
 
 TEST(ViewStatsTest, FramesWithFewerAnnotationsAreSkippedForTheMissingTruths) {
-  std::vector<dataset::Frame> frames = {FrameWith({{1.5, 300}}), FrameWith({{1.5, 300}, {2.5, 300}})};
+  std::vector<dataset::Frame> frames = {FrameWith({{1.5, 300}}),
+                                        FrameWith({{1.5, 300}, {2.5, 300}})};
   const std::vector<ViewStats> s = SceneViewStats(frames, 2, 3.5);
   EXPECT_EQ(s[0].frames_in_view, 2);
   EXPECT_EQ(s[1].frames_in_view, 1);

@@ -75,7 +75,7 @@ TEST(PatrolTest, FloorObjectsStandOnTheFloorBesideTheTables) {
     if (p.support.rfind("floor", 0) != 0) continue;
     ++on_floor;
     EXPECT_NEAR(p.T_wm.translation().z(), 0.04f, 0.04f);  // half the box's height or less
-    for (const Support& s : room.supports) {  // not under a table
+    for (const Support& s : room.supports) {              // not under a table
       if (s.name.rfind("table", 0) != 0) continue;
       const Eigen::Vector2f xy = p.T_wm.translation().head<2>();
       EXPECT_FALSE(xy.x() > s.min.x() && xy.x() < s.max.x() && xy.y() > s.min.y() &&

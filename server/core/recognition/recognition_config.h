@@ -23,9 +23,9 @@ inline constexpr double kReferenceSurface = 0.04;
 // min_score * sqrt(A / kReferenceSurface) (a 5 cm cube about 0.58 min_score), one of
 // unknown surface (0) min_score.
 struct InstanceVisibility {
-  double min_score = 40;
-  double min_fit = 0.15;
-  double max_view_conflict = 0.06;
+  double min_score = 52;
+  double min_fit = 0.3;
+  double max_view_conflict = 0.1;
   double MinScore(double surface_area) const {
     return surface_area > 0 ? min_score * std::sqrt(surface_area / kReferenceSurface) : min_score;
   }

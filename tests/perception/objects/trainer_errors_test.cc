@@ -76,6 +76,8 @@ TEST(TrainerErrorsTest, BadParametersNameTheField) {
 TEST(TrainerErrorsTest, ZoomOutsAddDescriptorsOnTheSameSurface) {
   ObjectDatabaseParams p;
   p.features.detector = "ORB";
+  EXPECT_EQ(p.zoom_out, 4);  // the default (docs/objects.md "Zoom-outs")
+  p.zoom_out = 1;
   absl::StatusOr<ObjectDatabaseParams> plain = ResolveParams(p);
   p.zoom_out = 2;
   absl::StatusOr<ObjectDatabaseParams> zoomed = ResolveParams(p);

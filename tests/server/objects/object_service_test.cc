@@ -151,7 +151,8 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     EXPECT_EQ(op->classifier().classes(), 600u);
     // Vote shares measured 2026-11-24 (deterministic for the seed; 24 trees x 24, 300
     // classes): object 1 0.816, object 2 0.598 (the cereal box's large printed faces hold
-    // more voxels than its classes). Floors keep two thirds of the margin over chance (0.5):
+    // more voxels than its classes); 2026-11-28 with the default zoom-outs: 0.749 and 0.684.
+    // Floors keep two thirds of the margin over chance (0.5) of the 2026-11-24 figures:
     // 0.5 + 2/3 x (measured - 0.5).
     ExpectRecognized(*c, kA, 0.71);
     ExpectRecognized(*c, kB, 0.56);
@@ -172,7 +173,7 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     ASSERT_TRUE(ready.ok());
     EXPECT_EQ(ready->state(), v1::Classifier::READY);
     EXPECT_EQ(ready->params().trees(), 24u);
-    ExpectRecognized(*c, kA, 0.71);  // the same classifier, reloaded: measured 0.816
+    ExpectRecognized(*c, kA, 0.71);  // the same classifier, reloaded: measured 0.749
 
     ASSERT_TRUE(c->DeleteObject("objects/1").ok());
     EXPECT_EQ(c->GetObject("objects/1").status().code(), absl::StatusCode::kNotFound);
@@ -198,14 +199,16 @@ TEST(ObjectServiceTest, TrainListGetBuildRestartDelete) {
     // features of object 1 (deleted) must mostly fail it, features of object 2 pass.
     const ViewStats own = ClassifyViews(*c, kB, kB);
     const ViewStats foreign = ClassifyViews(*c, kA, kB);
-    // Measured 2026-11-24 with a 50-bit threshold: 0.092 of object 2's features verified,
-    // 0.021 of object 1's: 4.4 x. (With ORB's default of 77 bits both are 0.62: for these
+    // Measured 2026-11-28 with a 50-bit threshold and the default zoom-outs (to 4): 0.096 of
+    // object 2's features verified, 0.049 of object 1's: 1.96 x (without zoom-outs, 2026-11-24:
+    // 0.092 and 0.021, 4.4 x; the shrunk views' blurrier descriptors sit between objects,
+    // docs/objects.md "Zoom-outs"). (With ORB's default of 77 bits both are 0.62: for these
     // printed textures the default verifies almost anything; recognition's voting and its
     // check against the map carry the rest, docs/recognition.md.) Without verification both
     // would be 1. Floor: two thirds of the measured ratio.
     EXPECT_EQ(own.views, 6);
     EXPECT_EQ(own.right_views, 6);
-    EXPECT_GE(own.VerifiedRate(), 2.9 * foreign.VerifiedRate());
+    EXPECT_GE(own.VerifiedRate(), 1.3 * foreign.VerifiedRate());
     EXPECT_GT(own.VerifiedRate(), 0);
   }
 }
