@@ -8,7 +8,8 @@
 // within 3 cm / 10 deg of the truth. Diagnostic: docs/recognition.md ("Robot view").
 //
 //   build/bench/bench/vote_probe --db=DATA_DIR/objects.sqlite --scene=DATASET/test/000001
-//       [--every=10] [--triples=400] [--bin=0.02] [--consistency=0.03] [--inlier=0.02]
+//       [--every=10] [--triples=N] [--bin=M] [--consistency=0.03] [--inlier=0.02]
+// (triples, bin, the sphere and the labels' voxel: the map's defaults unless given)
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -20,6 +21,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/strings/str_format.h"
+#include "bench/probe_frames.h"
 #include "dataset/reader.h"
 #include "perception/recognition/active_sphere.h"
 #include "perception/recognition/instance_estimator.h"
@@ -27,6 +29,7 @@
 #include "perception/recognition/pose_voting.h"
 #include "perception/recognition/recognition_model.h"
 #include "server/core/objects/object_database_io.h"
+#include "server/core/recognition/recognition_config.h"
 #include "skimap/skimap.h"
 
 ABSL_FLAG(std::string, db, "", "object database (a skimapd data dir's objects.sqlite)");
@@ -34,8 +37,8 @@ ABSL_FLAG(std::string, scene, "", "BOP scene folder");
 ABSL_FLAG(int, every, 10, "statistics at every n-th frame");
 ABSL_FLAG(int, vote_every, 1, "vote at every n-th frame (the map: every frame)");
 ABSL_FLAG(int, max_frames, 0, "frames at most (0 = all)");
-ABSL_FLAG(int, triples, 400, "VotingOptions.triples");
-ABSL_FLAG(double, bin, 0.02, "VotingOptions.bin");
+ABSL_FLAG(int, triples, 0, "triples per object and frame (0 = the map's default)");
+ABSL_FLAG(double, bin, 0, "Hough bin, metres (0 = the map's default)");
 ABSL_FLAG(double, consistency, 0.03, "VotingOptions.consistency");
 ABSL_FLAG(double, min_side, 0.02, "VotingOptions.min_side");
 ABSL_FLAG(double, inlier, 0.02, "VotingOptions.inlier_distance");
@@ -48,26 +51,6 @@ using namespace skimap;  // NOLINT: a small diagnostic program
 [[noreturn]] void Die(const std::string& what) {
   std::fprintf(stderr, "vote_probe: %s\n", what.c_str());
   std::exit(1);
-}
-
-absl::StatusOr<perception::RgbdFrame> ToRgbd(const dataset::Frame& f,
-                                             const dataset::FrameImages& img) {
-  perception::RgbdFrame frame;
-  frame.camera = {f.K.fx, f.K.fy, f.K.cx, f.K.cy, img.rgb.cols, img.rgb.rows};
-  frame.depth_scale = f.depth_scale / 1000;
-  frame.depth.width = img.depth.cols;
-  frame.depth.height = img.depth.rows;
-  frame.depth.pixels.assign(img.depth.begin<uint16_t>(), img.depth.end<uint16_t>());
-  perception::ColorImage colour{img.rgb.cols, img.rgb.rows, {}};
-  colour.rgb.resize(static_cast<size_t>(img.rgb.total()) * 3);
-  for (int p = 0; p < static_cast<int>(img.rgb.total()); ++p) {
-    const cv::Vec3b bgr = img.rgb.at<cv::Vec3b>(p / img.rgb.cols, p % img.rgb.cols);
-    colour.rgb[3 * p] = bgr[2], colour.rgb[3 * p + 1] = bgr[1], colour.rgb[3 * p + 2] = bgr[0];
-  }
-  frame.color = std::move(colour);
-  frame.pose.rotation = Eigen::Quaterniond(f.T_wc.linear());
-  frame.pose.translation = f.T_wc.translation();
-  return frame;
 }
 
 struct Bin {
@@ -96,8 +79,11 @@ int main(int argc, char** argv) {
   SkiMap<MultiLabelVoxel> labels(
       SkiMap<MultiLabelVoxel>::Options{.resolution = absl::GetFlag(FLAGS_labels_resolution)});
   recognition::VotingOptions voting;
-  voting.triples = absl::GetFlag(FLAGS_triples);
-  voting.bin = static_cast<float>(absl::GetFlag(FLAGS_bin));
+  const server::RecognitionConfig map_defaults;  // what a map gets (recognition_config.h)
+  voting.triples =
+      absl::GetFlag(FLAGS_triples) > 0 ? absl::GetFlag(FLAGS_triples) : map_defaults.triples;
+  voting.bin = static_cast<float>(absl::GetFlag(FLAGS_bin) > 0 ? absl::GetFlag(FLAGS_bin)
+                                                               : map_defaults.hough_bin);
   voting.consistency = static_cast<float>(absl::GetFlag(FLAGS_consistency));
   voting.min_side = static_cast<float>(absl::GetFlag(FLAGS_min_side));
   voting.inlier_distance = static_cast<float>(absl::GetFlag(FLAGS_inlier));
@@ -108,9 +94,8 @@ int main(int argc, char** argv) {
   if (absl::GetFlag(FLAGS_max_frames) > 0) n = std::min(n, absl::GetFlag(FLAGS_max_frames));
   for (int i = 0; i < n; ++i) {
     const dataset::Frame& f = seq->frames[i];
-    absl::StatusOr<dataset::FrameImages> img = dataset::LoadFrameImages(f);
-    if (!img.ok()) Die(img.status().ToString());
-    absl::StatusOr<perception::RgbdFrame> frame = ToRgbd(f, *img);
+    absl::StatusOr<perception::RgbdFrame> frame = bench::ProbeFrame(f);
+    if (!frame.ok()) Die(frame.status().ToString());
     absl::StatusOr<recognition::LabelObservations> obs = observer.Observe(*frame, 0.1, 5.0);
     if (!obs.ok()) Die(obs.status().ToString());
     labels_per_frame += obs->labels.size();
@@ -120,7 +105,8 @@ int main(int argc, char** argv) {
     labels.Integrate(batch);
     if (i % absl::GetFlag(FLAGS_vote_every) != 0) continue;
     const bool stats = i % absl::GetFlag(FLAGS_every) == 0;
-    const recognition::Sphere sphere = recognition::ActiveSphere(frame->pose, *obs, 0, 0.6);
+    const recognition::Sphere sphere = recognition::ActiveSphere(
+        frame->pose, *obs, map_defaults.sphere_distance, map_defaults.sphere_radius);
     std::vector<std::vector<recognition::LabelMatch>> matches(model->num_objects());
     labels.RadiusSearch(
         Point3{sphere.centre.x(), sphere.centre.y(), sphere.centre.z()}, sphere.radius,

@@ -204,6 +204,10 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
     if (!sequence.ok()) return sequence.status();
     if (sequence->frames.empty()) continue;
     const std::vector<TruthObject> truths = SceneTruths(*sequence);
+    // The frames the stream sends (every n-th, at most max_frames): the single view and the
+    // view statistics take the same ones.
+    const std::vector<dataset::Frame> streamed_frames =
+        KeepEvery(sequence->frames, options.every, options.max_frames);
     bool mssd_available = true;
     for (const TruthObject& t : truths) mssd_available &= model_points->contains(t.obj_id);
     totals.mssd_available &= mssd_available;
@@ -251,8 +255,7 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
     MethodScore single;
     if (options.single_view) {
       absl::StatusOr<std::vector<v1::Instance>> found =
-          SingleView(objects, KeepEvery(sequence->frames, options.every, options.max_frames),
-                     options.single_view_options);
+          SingleView(objects, streamed_frames, options.single_view_options);
       if (!found.ok()) return found.status();
       single_instances = *std::move(found);
       single = ScoreMethod(truths, single_instances, *dataset, *model_points, options.score,
@@ -302,8 +305,7 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
           << "\n";
     }
     const std::vector<ViewStats> views =
-        SceneViewStats(KeepEvery(sequence->frames, options.every, options.max_frames), n,
-                       options.max_view_distance);
+        SceneViewStats(streamed_frames, n, options.max_view_distance);
     for (int t = 0; t < n; ++t) {
       const bool found = multi.score.match[t] >= 0;
       view_recall.Add(views[t], found);

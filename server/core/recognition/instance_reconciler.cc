@@ -393,16 +393,13 @@ v1::Instance ToProto(const Instance& i, const recognition::RecognitionModel* mod
   out.set_id(i.id);
   out.set_obj_id(static_cast<int32_t>(i.object_id));
   out.set_object(absl::StrCat("objects/", i.object_id));
-  if (model != nullptr) {
-    const int index = model->FindObject(static_cast<int>(i.object_id));
-    if (index >= 0) out.set_object_name(model->object(index).name);
-  }
   out.set_score_scale(1);
   if (model != nullptr) {
     const int index = model->FindObject(static_cast<int>(i.object_id));
     if (index >= 0) {
-      const double area = model->object(index).surface_area;
-      out.set_score_scale(InstanceVisibility{.min_score = 1}.MinScore(area));
+      out.set_object_name(model->object(index).name);
+      out.set_score_scale(
+          InstanceVisibility{.min_score = 1}.MinScore(model->object(index).surface_area));
     }
   }
   v1::Pose* pose = out.mutable_pose();
