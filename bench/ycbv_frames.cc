@@ -1,5 +1,6 @@
 #include "bench/ycbv_frames.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 
@@ -16,11 +17,11 @@ namespace {
 
 }  // namespace
 
-std::vector<RealFrame> LoadYcbvFrames(const std::string& root) {
+std::vector<RealFrame> LoadYcbvFrames(const std::string& root, size_t every, size_t limit) {
   absl::StatusOr<std::vector<dataset::Frame>> frames = client::LoadDatasetFrames(root);
   if (!frames.ok()) ExitWith(frames.status().ToString());
   std::vector<RealFrame> out;
-  for (size_t i = 0; i < frames->size(); ++i) {
+  for (size_t i = 0; i < frames->size() && out.size() < limit; i += std::max<size_t>(every, 1)) {
     absl::StatusOr<v1::Frame> api = client::ToApiFrame((*frames)[i], "maps/bench", i + 1);
     if (!api.ok()) ExitWith(api.status().ToString());
     absl::StatusOr<perception::RgbdFrame> decoded = server::DecodeFrame(*api);

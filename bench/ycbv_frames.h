@@ -10,6 +10,7 @@
 #ifndef BENCH_YCBV_FRAMES_H_
 #define BENCH_YCBV_FRAMES_H_
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -28,8 +29,10 @@ struct RealFrame {
   perception::ColorImage color;
 };
 
-// The frames of the BOP dataset at `root`; prints the error and exits when it does not load.
-std::vector<RealFrame> LoadYcbvFrames(const std::string& root);
+// The frames of the BOP dataset at `root` (every `every`-th, at most `limit`); prints the
+// error and exits when it does not load.
+std::vector<RealFrame> LoadYcbvFrames(const std::string& root, size_t every = 1,
+                                      size_t limit = SIZE_MAX);
 
 struct Codec {
   const char* name;

@@ -1,51 +1,153 @@
 #include "perception/free_space.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <numbers>
+#include <span>
 #include <vector>
 
 namespace skimap::perception {
 namespace {
 
-// A ray's part inside the slab, projected onto the xy plane, as column keys.
-struct Segment {
-  double ax, ay, bx, by;  // world metres
-  int32_t kx0, ky0, kx1, ky1;
+constexpr double kPi = std::numbers::pi;
+
+// atan2 within 1.1e-5 rad: the Abramowitz & Stegun 4.4.49 polynomial for atan on [0, 1],
+// extended to the plane by octant symmetry. Deterministic, a few times cheaper than
+// std::atan2, and the same function bins rays and cells, so its error cancels.
+double FastAtan2(double y, double x) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  const double lo = std::min(ax, ay), hi = std::max(ax, ay);
+  if (hi == 0) return 0;
+  const double t = lo / hi, t2 = t * t;
+  double a =
+      t * (0.9998660 + t2 * (-0.3302995 + t2 * (0.1801410 + t2 * (-0.0851330 + t2 * 0.0208351))));
+  if (ay > ax) a = 0.5 * kPi - a;
+  if (x < 0) a = kPi - a;
+  return y < 0 ? -a : a;
+}
+
+// Wraps an angle difference into (-pi, pi].
+double Wrap(double a) {
+  if (a > kPi) return a - 2 * kPi;
+  if (a <= -kPi) return a + 2 * kPi;
+  return a;
+}
+
+// One ray's part inside the slab, seen from above: the half-line from the camera's column
+// at `angle` (radians from the reference azimuth), from radius r0 to r1 (metres).
+struct FanRay {
+  double angle, r0, r1;
+};
+struct Interval {
+  double r0, r1;
 };
 
-// Calls mark(kx, ky) for every column the segment crosses, a's first and b's last
-// (Amanatides & Woo in 2D).
-template <class Mark>
-void WalkColumns(const Grid& grid, const Segment& s, Mark&& mark) {
-  const double res = grid.resolution();
-  const double origin[2] = {grid.origin().x, grid.origin().y};
-  const double a[2] = {s.ax, s.ay}, dir[2] = {s.bx - s.ax, s.by - s.ay};
-  int32_t k[2] = {s.kx0, s.ky0};
-  const int32_t k_end[2] = {s.kx1, s.ky1};
-  int step[2];
-  double t_max[2], t_delta[2];
-  for (int axis = 0; axis < 2; ++axis) {
-    step[axis] = k_end[axis] > k[axis] ? 1 : k_end[axis] < k[axis] ? -1 : 0;
-    if (step[axis] == 0 || dir[axis] == 0) {
-      t_max[axis] = t_delta[axis] = std::numeric_limits<double>::infinity();
+constexpr size_t kMaxBins = size_t{1} << 15;
+
+// Appends the union of the rays [first, last) to *out, sorted; intervals closer than `join`
+// merge.
+void MergeIntervals(FanRay* first, FanRay* last, double join, std::vector<Interval>* out) {
+  std::sort(first, last, [](const FanRay& a, const FanRay& b) { return a.r0 < b.r0; });
+  Interval cur{first->r0, first->r1};
+  for (const FanRay* it = first + 1; it != last; ++it) {
+    if (it->r0 <= cur.r1 + join) {
+      cur.r1 = std::max(cur.r1, it->r1);
+    } else {
+      out->push_back(cur);
+      cur = {it->r0, it->r1};
+    }
+  }
+  out->push_back(cur);
+}
+
+// Appends the intersection of two sorted, disjoint interval lists to *out.
+void IntersectIntervals(std::span<const Interval> a, std::span<const Interval> b,
+                        std::vector<Interval>* out) {
+  size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    const double lo = std::max(a[i].r0, b[j].r0), hi = std::min(a[i].r1, b[j].r1);
+    if (lo <= hi) out->push_back({lo, hi});
+    (a[i].r1 < b[j].r1 ? i : j)++;
+  }
+}
+
+// The fan of a frame: per angular bin, the union of the radius intervals its rays carved.
+struct Fan {
+  double min_angle = 0, bin_width = 0, max_r = 0;
+  std::vector<uint32_t> first;  // bin b's intervals: [first[b], first[b + 1])
+  std::vector<Interval> intervals;
+  size_t bins() const { return first.empty() ? 0 : first.size() - 1; }
+  std::span<const Interval> Of(size_t b) const {
+    return {intervals.data() + first[b], first[b + 1] - first[b]};
+  }
+};
+
+// Bins the rays (bins one column wide at the farthest reach) and fills the bins between two
+// neighbouring rays (at most max_gap apart) with what both carved: the fan between two
+// neighbouring rays is free up to the nearer one.
+Fan MakeFan(std::vector<FanRay>& rays, double res, double max_gap, bool from_camera) {
+  Fan fan;
+  double max_angle = -kPi;
+  fan.min_angle = kPi;
+  for (const FanRay& r : rays) {
+    fan.min_angle = std::min(fan.min_angle, r.angle);
+    max_angle = std::max(max_angle, r.angle);
+    fan.max_r = std::max(fan.max_r, r.r1);
+  }
+  fan.bin_width = std::max(res / fan.max_r, (max_angle - fan.min_angle) / double(kMaxBins - 1));
+  const size_t bins = size_t((max_angle - fan.min_angle) / fan.bin_width) + 1;
+  auto bin_of = [&](double angle) {
+    return std::min(bins - 1, size_t((angle - fan.min_angle) / fan.bin_width));
+  };
+  // Each bin's own intervals.
+  std::vector<uint32_t> own(bins + 1, 0);
+  std::vector<Interval> merged;
+  if (from_camera) {  // every ray starts at the camera: a bin's union is [0, its farthest]
+    std::vector<double> reach(bins, -1);
+    for (const FanRay& r : rays) {
+      double& m = reach[bin_of(r.angle)];
+      m = std::max(m, r.r1);
+    }
+    for (size_t b = 0; b < bins; ++b) {
+      own[b] = uint32_t(merged.size());
+      if (reach[b] >= 0) merged.push_back({0, reach[b]});
+    }
+  } else {
+    std::vector<uint32_t> start(bins + 1, 0);
+    for (const FanRay& r : rays) ++start[bin_of(r.angle) + 1];
+    for (size_t b = 0; b < bins; ++b) start[b + 1] += start[b];
+    std::vector<FanRay> sorted(rays.size());
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (const FanRay& r : rays) sorted[fill[bin_of(r.angle)]++] = r;
+    for (size_t b = 0; b < bins; ++b) {
+      own[b] = uint32_t(merged.size());
+      if (start[b] < start[b + 1]) {
+        MergeIntervals(sorted.data() + start[b], sorted.data() + start[b + 1], res, &merged);
+      }
+    }
+  }
+  own[bins] = uint32_t(merged.size());
+  std::vector<uint32_t> next(bins + 1, uint32_t(bins));  // the first bin >= b with rays
+  for (size_t b = bins; b-- > 0;) next[b] = own[b] < own[b + 1] ? uint32_t(b) : next[b + 1];
+  fan.first.assign(bins + 1, 0);
+  size_t left = bins;  // the last bin with rays; none yet
+  for (size_t b = 0; b < bins; ++b) {
+    fan.first[b] = uint32_t(fan.intervals.size());
+    const std::span<const Interval> mine(merged.data() + own[b], own[b + 1] - own[b]);
+    if (!mine.empty()) {
+      fan.intervals.insert(fan.intervals.end(), mine.begin(), mine.end());
+      left = b;
       continue;
     }
-    const double boundary = origin[axis] + (k[axis] + (step[axis] > 0)) * res;
-    t_max[axis] = (boundary - a[axis]) / dir[axis];
-    t_delta[axis] = res / std::abs(dir[axis]);
+    const size_t right = next[b];
+    if (left == bins || right == bins || double(right - left) * fan.bin_width > max_gap) continue;
+    IntersectIntervals({merged.data() + own[left], own[left + 1] - own[left]},
+                       {merged.data() + own[right], own[right + 1] - own[right]}, &fan.intervals);
   }
-  mark(k[0], k[1]);
-  int remaining = std::abs(k_end[0] - k[0]) + std::abs(k_end[1] - k[1]);
-  while (remaining-- > 0) {
-    // The nearer boundary among the axes that still have columns to cross.
-    const int axis = k[0] == k_end[0] ? 1 : k[1] == k_end[1] ? 0 : t_max[1] < t_max[0] ? 1 : 0;
-    k[axis] += step[axis];
-    t_max[axis] += t_delta[axis];
-    mark(k[0], k[1]);
-  }
+  fan.first[bins] = uint32_t(fan.intervals.size());
+  return fan;
 }
 
 }  // namespace
@@ -60,10 +162,24 @@ absl::Status ValidateFreeSpaceOptions(const FreeSpaceOptions& o) {
   return absl::OkStatus();
 }
 
+// Splits [0, n) into `pieces` contiguous ranges and runs fn(piece, begin, end) for each, on
+// the pool's threads when there is one.
+template <class Fn>
+static void ForPieces(ThreadPool* pool, size_t n, size_t pieces, Fn&& fn) {
+  auto run = [&](size_t first, size_t last) {
+    for (size_t p = first; p < last; ++p) fn(p, n * p / pieces, n * (p + 1) / pieces);
+  };
+  if (pool == nullptr || pool->workers() == 0 || pieces == 1) {
+    run(0, pieces);
+  } else {
+    pool->ParallelFor(pieces, run);
+  }
+}
+
 FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
                                    const IntegrationOptions& integration,
-                                   const FreeSpaceOptions& options,
-                                   VoxelBatch<WeightVoxel>* batch) {
+                                   const FreeSpaceOptions& options, VoxelBatch<WeightVoxel>* batch,
+                                   ThreadPool* pool) {
   batch->Clear();
   FreeSpaceStats stats;
   const PinholeCamera& cam = frame.camera;
@@ -72,73 +188,153 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   const Eigen::Vector3d& o = frame.pose.translation;
   const double res = grid.resolution();
   const uint16_t* depth = frame.depth.pixels.data();
-  // Pass 1: the rays' slab segments and the key box they span.
-  std::vector<Segment> segments;
-  int32_t min_x = std::numeric_limits<int32_t>::max(), min_y = min_x;
-  int32_t max_x = std::numeric_limits<int32_t>::min(), max_y = max_x;
-  for (int v = 0; v < cam.height; v += stride) {
-    for (int u = 0; u < cam.width; u += stride) {
-      const uint16_t d = depth[size_t(v) * cam.width + u];
-      if (d == 0) continue;
-      const double z = d * frame.depth_scale;
-      if (z < integration.min_depth || z > integration.max_depth) continue;
-      const Eigen::Vector3d ray =
-          rot * Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1);
-      const double length = z * ray.norm();
-      if (length <= res) continue;
-      // From the camera to one voxel short of the hit, clipped to the slab.
-      const Eigen::Vector3d end = o + ray * (z * (length - res) / length);
-      const double dz = end.z() - o.z();
-      double t0 = 0, t1 = 1;
-      if (std::abs(dz) < 1e-12) {
-        if (o.z() < options.min_z || o.z() > options.max_z) continue;
-      } else {
-        double ta = (options.min_z - o.z()) / dz, tb = (options.max_z - o.z()) / dz;
-        if (ta > tb) std::swap(ta, tb);
-        t0 = std::max(t0, ta);
-        t1 = std::min(t1, tb);
-        if (!(t0 < t1)) continue;
+  // Pieces of work (rows of rays, then x ranges of columns), concatenated in order: the
+  // batch does not depend on the pool.
+  const size_t pieces = pool == nullptr ? 1 : 4 * size_t(pool->workers() + 1);
+  // Angles are measured from the optical axis's azimuth (any azimuth when it looks
+  // straight down), so a camera's fan does not straddle the +-pi seam.
+  const Eigen::Vector3d axis = rot.col(2);
+  const double reference =
+      std::hypot(axis.x(), axis.y()) > 1e-9 ? std::atan2(axis.y(), axis.x()) : 0.0;
+  // Pass 1: every ray's slab part as a fan ray. The ray through pixel (u, v) is
+  // base + du * u + dv * v in the world (not normalised).
+  const Eigen::Vector3d du = rot.col(0) / cam.fx, dv = rot.col(1) / cam.fy;
+  const Eigen::Vector3d base = rot.col(2) - du * cam.cx - dv * cam.cy;
+  struct RayPiece {
+    std::vector<FanRay> rays;
+    size_t count = 0;           // rays that reach into the slab
+    bool from_camera = true;    // every ray's slab part starts at the camera
+    bool under_camera = false;  // a ray's slab part stays in the camera's own column
+  };
+  std::vector<RayPiece> ray_pieces(pieces);
+  const size_t lattice_rows = size_t((cam.height + stride - 1) / stride);
+  ForPieces(pool, lattice_rows, pieces, [&](size_t piece, size_t first, size_t last) {
+    RayPiece& out = ray_pieces[piece];
+    for (int v = int(first) * stride; v < int(last) * stride; v += stride) {
+      const double yv = (v - cam.cy) / cam.fy;
+      const Eigen::Vector3d row = base + dv * v;
+      for (int u = 0; u < cam.width; u += stride) {
+        const uint16_t d = depth[size_t(v) * cam.width + u];
+        if (d == 0) continue;
+        const double z = d * frame.depth_scale;
+        if (z < integration.min_depth || z > integration.max_depth) continue;
+        const double xu = (u - cam.cx) / cam.fx;
+        const double length = z * std::sqrt(xu * xu + yv * yv + 1);
+        if (length <= res) continue;
+        // From the camera to one voxel short of the hit, clipped to the slab.
+        const Eigen::Vector3d hit = (row + du * u) * (z * (length - res) / length);
+        double t0 = 0, t1 = 1;
+        if (std::abs(hit.z()) < 1e-12) {
+          if (o.z() < options.min_z || o.z() > options.max_z) continue;
+        } else {
+          double ta = (options.min_z - o.z()) / hit.z(), tb = (options.max_z - o.z()) / hit.z();
+          if (ta > tb) std::swap(ta, tb);
+          t0 = std::max(t0, ta);
+          t1 = std::min(t1, tb);
+          if (!(t0 < t1)) continue;
+        }
+        ++out.count;
+        const double h = std::sqrt(hit.x() * hit.x() + hit.y() * hit.y());
+        if (t1 * h < 0.5 * res) {
+          out.under_camera = true;
+          continue;
+        }
+        out.from_camera = out.from_camera && t0 == 0;
+        out.rays.push_back({Wrap(FastAtan2(hit.y(), hit.x()) - reference), t0 * h, t1 * h});
       }
-      const Eigen::Vector3d a = o + t0 * (end - o), b = o + t1 * (end - o);
-      Segment s{a.x(), a.y(), b.x(), b.y(), 0, 0, 0, 0};
-      if (!grid.AxisToKey(s.ax, grid.origin().x, &s.kx0) ||
-          !grid.AxisToKey(s.ay, grid.origin().y, &s.ky0) ||
-          !grid.AxisToKey(s.bx, grid.origin().x, &s.kx1) ||
-          !grid.AxisToKey(s.by, grid.origin().y, &s.ky1)) {
-        continue;  // leaves the key range
-      }
-      min_x = std::min({min_x, s.kx0, s.kx1}), max_x = std::max({max_x, s.kx0, s.kx1});
-      min_y = std::min({min_y, s.ky0, s.ky1}), max_y = std::max({max_y, s.ky0, s.ky1});
-      segments.push_back(s);
     }
-  }
-  stats.rays = segments.size();
-  if (segments.empty()) return stats;
-  // Pass 2: the columns crossed, once per frame, in a bitmap over the key box.
-  const size_t width = size_t(int64_t{max_x} - min_x + 1),
-               height = size_t(int64_t{max_y} - min_y + 1);
-  std::vector<uint64_t> bits((width * height + 63) / 64, 0);
-  for (const Segment& s : segments) {
-    WalkColumns(grid, s, [&](int32_t kx, int32_t ky) {
-      const size_t i = size_t(ky - min_y) * width + size_t(kx - min_x);
-      bits[i / 64] |= uint64_t{1} << (i % 64);
-    });
-  }
-  std::vector<VoxelKey> keys;
-  for (size_t w = 0; w < bits.size(); ++w) {
-    for (uint64_t word = bits[w]; word != 0; word &= word - 1) {
-      const size_t i = w * 64 + size_t(std::countr_zero(word));
-      keys.push_back({min_x + int32_t(i % width), min_y + int32_t(i / width), 0});
-    }
-  }
-  stats.columns = keys.size();
-  // Keys are integers: a unit grid at the origin maps them onto themselves.
-  batch->AddPoints(Grid(1.0), keys.size(), [&](size_t i, Point3* p, WeightVoxel* w) {
-    *p = {double(keys[i].x), double(keys[i].y), double(keys[i].z)};
-    w->weight = 1;
-    return true;
   });
-  batch->Finalize();
+  std::vector<FanRay> rays;
+  bool from_camera = true, under_camera = false;
+  for (RayPiece& p : ray_pieces) {
+    rays.insert(rays.end(), p.rays.begin(), p.rays.end());
+    stats.rays += p.count;
+    from_camera = from_camera && p.from_camera;
+    under_camera = under_camera || p.under_camera;
+  }
+  // The camera's own column is crossed when a ray starts there.
+  int32_t camera_x = 0, camera_y = 0;
+  const bool camera_keyed = grid.AxisToKey(o.x(), grid.origin().x, &camera_x) &&
+                            grid.AxisToKey(o.y(), grid.origin().y, &camera_y);
+  const bool mark_camera =
+      camera_keyed && (under_camera || std::any_of(rays.begin(), rays.end(),
+                                                   [](const FanRay& r) { return r.r0 == 0; }));
+  using Item = VoxelBatch<WeightVoxel>::Item;
+  std::vector<std::vector<Item>> item_pieces(pieces);
+  if (!rays.empty()) {
+    const Fan fan = MakeFan(rays, res, 2.5 * stride / std::min(cam.fx, cam.fy), from_camera);
+    // Pass 2: the key box of the fan (its intervals' ends at both edges of their bins).
+    double lo_x = o.x(), hi_x = o.x(), lo_y = o.y(), hi_y = o.y();
+    for (size_t b = 0; b < fan.bins(); ++b) {
+      for (const Interval& r : fan.Of(b)) {
+        for (double edge : {0.0, 1.0}) {
+          const double angle = reference + fan.min_angle + (double(b) + edge) * fan.bin_width;
+          const double cx = std::cos(angle), cy = std::sin(angle);
+          for (double radius : {r.r0, r.r1}) {
+            lo_x = std::min(lo_x, o.x() + radius * cx), hi_x = std::max(hi_x, o.x() + radius * cx);
+            lo_y = std::min(lo_y, o.y() + radius * cy), hi_y = std::max(hi_y, o.y() + radius * cy);
+          }
+        }
+      }
+    }
+    int32_t min_x, min_y, max_x, max_y;
+    if (grid.AxisToKey(lo_x - res, grid.origin().x, &min_x) &&
+        grid.AxisToKey(lo_y - res, grid.origin().y, &min_y) &&
+        grid.AxisToKey(hi_x + res, grid.origin().x, &max_x) &&
+        grid.AxisToKey(hi_y + res, grid.origin().y, &max_y)) {
+      // Pass 3: every column whose centre lies in the fan, x major (so the keys are
+      // sorted). A fan that leaves the key range carves nothing.
+      const double max_r2 = fan.max_r * fan.max_r;
+      const size_t bins = fan.bins();
+      const size_t columns = size_t(int64_t{max_x} - min_x + 1);
+      ForPieces(pool, columns, pieces, [&](size_t piece, size_t first, size_t last) {
+        std::vector<Item>& out = item_pieces[piece];
+        for (int32_t kx = min_x + int32_t(first); kx < min_x + int32_t(last); ++kx) {
+          const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
+          if (dx * dx > max_r2) continue;
+          // Only the ys within max_r of the camera (a cell more at each end for rounding).
+          const double reach = std::sqrt(max_r2 - dx * dx);
+          int32_t y0 = min_y, y1 = max_y;
+          if (int32_t k; grid.AxisToKey(o.y() - reach, grid.origin().y, &k)) {
+            y0 = std::max(y0, k - 1);
+          }
+          if (int32_t k; grid.AxisToKey(o.y() + reach, grid.origin().y, &k)) {
+            y1 = std::min(y1, k + 1);
+          }
+          for (int32_t ky = y0; ky <= y1; ++ky) {
+            const double dy = grid.AxisCenter(ky, grid.origin().y) - o.y();
+            const double r2 = dx * dx + dy * dy;
+            if (r2 > max_r2) continue;
+            const double a = Wrap(FastAtan2(dy, dx) - reference) - fan.min_angle;
+            if (a < 0) continue;
+            const size_t b = size_t(a / fan.bin_width);
+            if (b >= bins) continue;
+            const double r = std::sqrt(r2);
+            for (const Interval& in : fan.Of(b)) {
+              if (r >= in.r0 && r <= in.r1) {
+                out.push_back({{kx, ky, 0}, WeightVoxel{1}});
+                break;
+              }
+            }
+          }
+        }
+      });
+    }
+  }
+  std::vector<Item> items;
+  for (const std::vector<Item>& p : item_pieces) items.insert(items.end(), p.begin(), p.end());
+  if (mark_camera) {
+    const VoxelKey k{camera_x, camera_y, 0};
+    const auto at =
+        std::lower_bound(items.begin(), items.end(), k, [](const Item& a, const VoxelKey& b) {
+          return a.key.x != b.x ? a.key.x < b.x : a.key.y < b.y;
+        });
+    if (at == items.end() || at->key.x != k.x || at->key.y != k.y) {
+      items.insert(at, {k, WeightVoxel{1}});
+    }
+  }
+  stats.columns = items.size();
+  batch->AssignSorted(items);
   return stats;
 }
 

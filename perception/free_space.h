@@ -1,5 +1,5 @@
-// Free-space carving for the 2D occupancy grid: the (x, y) columns a depth ray crossed
-// inside the grid's z band, before it hit a surface, are free.
+// Free-space carving for the 2D occupancy grid: the (x, y) columns the depth rays swept
+// inside the grid's z band, before they hit a surface, are free.
 //
 //   VoxelBatch<WeightVoxel> free;
 //   BuildFreeSpaceBatch(frame, free_map.grid(), integration, {.min_z = 0.05, .max_z = 1.5},
@@ -8,12 +8,18 @@
 //
 // For every pixel on the pixel_stride lattice whose depth is valid and inside the
 // integration depth range, the segment from the camera centre to one voxel short of the
-// hit is clipped to the world z slab [min_z, max_z], projected onto the xy plane and walked
-// cell by cell (2D DDA, Amanatides & Woo 1987). Each column crossed by at least one ray of
-// the frame gets WeightVoxel(1) at z key 0: the free volume is a single layer whose weight
-// counts the frames that saw through a column's band. Pixels without depth carve nothing
-// (no return is no evidence). Deterministic, like BuildFrameBatch, so pose updates can
-// subtract a frame's free evidence exactly.
+// hit is clipped to the world z slab [min_z, max_z]. Seen from above, that part is a radius
+// interval [r0, r1] along the ray's azimuth from the camera's column. The frame's rays make
+// a fan: azimuth bins one column wide at the farthest reach, each the union of its rays'
+// intervals; a bin without rays between two bins with rays at most 2.5 lattice steps
+// (2.5 * pixel_stride / f radians) apart gets the intersection of theirs, so the wedge
+// between neighbouring rays is free up to the nearer hit, and a wider hole of missing depth
+// carves nothing. Every column whose centre lies in the fan (and the camera's own column,
+// when a ray starts there) gets WeightVoxel(1) at z key 0: the free volume is a single
+// layer whose weight counts the frames that saw through a column's band. Pixels without
+// depth carve nothing (no return is no evidence). Deterministic, like BuildFrameBatch, so
+// pose updates can subtract a frame's free evidence exactly. Cost: one pass over the rays
+// and one over the fan's columns (bench/free_space_bench.cc).
 //
 // Thread safety: free functions; the batch is the caller's.
 #ifndef PERCEPTION_FREE_SPACE_H_
@@ -22,6 +28,7 @@
 #include <cstddef>
 
 #include "absl/status/status.h"
+#include "base/thread_pool.h"
 #include "perception/frame_integrator.h"
 #include "perception/rgbd_frame.h"
 #include "skimap/grid.h"
@@ -44,12 +51,14 @@ struct FreeSpaceStats {
 // InvalidArgument naming the bad option ("carve_pixel_stride", "band").
 absl::Status ValidateFreeSpaceOptions(const FreeSpaceOptions& options);
 
-// Clears *batch and fills it with the frame's free-space evidence, finalized.
+// Clears *batch and fills it with the frame's free-space evidence, finalized. With a pool,
+// the rays and the columns are split over its threads; the batch is the same either way.
 // REQUIRES: ValidateFrame(frame), ValidateIntegrationOptions(integration) and
 // ValidateFreeSpaceOptions(options) are OK.
 FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
                                    const IntegrationOptions& integration,
-                                   const FreeSpaceOptions& options, VoxelBatch<WeightVoxel>* batch);
+                                   const FreeSpaceOptions& options, VoxelBatch<WeightVoxel>* batch,
+                                   ThreadPool* pool = nullptr);
 
 }  // namespace skimap::perception
 

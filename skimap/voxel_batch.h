@@ -145,6 +145,16 @@ class VoxelBatch {
     finalized_ = false;
   }
 
+  // Replaces the content with `items`, finalized without sorting.
+  // REQUIRES: keys strictly increasing in (x, y, z) order, every component in
+  // [kMinKey, kMaxKey] (what a finalized batch holds).
+  void AssignSorted(std::span<const Item> items) {
+    Clear();
+    Reserve(items.size());
+    std::copy(items.begin(), items.end(), storage_.begin());
+    n_ = items.size();
+  }
+
   // Sorts the items by key and merges duplicates, on the pool's threads if given. Cheap
   // when already finalized.
   void Finalize(ThreadPool* pool = nullptr);

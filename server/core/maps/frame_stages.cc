@@ -73,7 +73,7 @@ class CarveStage final : public FrameStage {
         pool_(pool) {}
   perception::IntegrationStats Stage(const perception::RgbdFrame& frame, Sign sign) override {
     pending_.Stage(sign, [&](VoxelBatch<WeightVoxel>* batch) {
-      perception::BuildFreeSpaceBatch(frame, grid_, integration_, free_space_, batch);
+      perception::BuildFreeSpaceBatch(frame, grid_, integration_, free_space_, batch, pool_);
     });
     return {};
   }

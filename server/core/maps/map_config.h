@@ -22,7 +22,7 @@ struct MapConfig {
   perception::IntegrationOptions integration;
   float min_voxel_weight = 1;                                      // queries ignore lighter voxels
   double band_min_z = 0.05, band_max_z = 1.5, floor_min_z = -0.3;  // occupancy grid band
-  bool carve_free_space = false;  // free-space carving (MapOptions.carve_free_space)
+  bool carve_free_space = true;  // free-space carving (MapOptions.carve_free_space)
   int carve_pixel_stride = 4;
   RecognitionConfig recognition;  // MapOptions.recognition (recognition_config.h)
   // The carving parameters as perception takes them (the slab is the grid band).
