@@ -215,6 +215,7 @@ absl::StatusOr<EvalTotals> RunEval(MapClient& client, ObjectClient& objects,
     StreamOptions stream;
     stream.map_id = absl::StrCat("eval_", name);
     stream.resolution = options.resolution;
+    stream.map_options = options.map_options;
     stream.quiet = true;
     stream.every = options.every;
     stream.max_frames = options.max_frames;

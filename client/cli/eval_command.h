@@ -51,6 +51,7 @@ struct EvalOptions {
   int every = 1;       // stream every n-th frame (fewer vantage points)
   int max_frames = 0;  // frames per scene at most; 0: all
   double resolution = 0.02;
+  v1::MapOptions map_options;  // more options of the eval maps (the fields set)
   ScoreOptions score;
   std::string csv;            // one row per truth, or empty
   std::string instances_dir;  // per scene instance JSON files, or empty

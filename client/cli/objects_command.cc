@@ -22,7 +22,8 @@ ABSL_FLAG(double, zoom_out, 0,
 ABSL_FLAG(bool, on_server, false, "objects train: the server reads DATASET from its disk");
 ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
-ABSL_FLAG(int, max_depth, 0, "objects build: forest depth (0 = stored/24)");
+ABSL_FLAG(int, tree_depth, 0,
+          "objects build: forest (tree) depth, ClassifierParams.max_depth (0 = stored/24)");
 
 namespace skimap::client {
 namespace {
@@ -145,7 +146,7 @@ absl::Status Build(ObjectClient& client) {
     request.mutable_params()->set_classes_per_object(k);
   }
   if (int t = absl::GetFlag(FLAGS_trees); t > 0) request.mutable_params()->set_trees(t);
-  if (int d = absl::GetFlag(FLAGS_max_depth); d > 0) request.mutable_params()->set_max_depth(d);
+  if (int d = absl::GetFlag(FLAGS_tree_depth); d > 0) request.mutable_params()->set_max_depth(d);
   absl::StatusOr<v1::Operation> op = client.BuildClassifier(request);
   if (!op.ok()) return op.status();
   op = client.WaitDone(op->name(), PrintProgress);

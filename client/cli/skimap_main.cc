@@ -4,6 +4,8 @@
 //                                     | maps rm ID | maps info ID
 //   skimap stream DATASET --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=zstd]
 //                                              (creates ID if missing)
+//   maps create, stream and eval also take the MapOptions fields as flags
+//   (--band_min_z, --carve_free_space, ...: client/cli/map_option_flags.h)
 //   skimap grid --map=ID -o FILE.yaml          ROS map_server PGM + YAML (trinary)
 //   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
 //   skimap voxels --map=ID -o FILE.ply
@@ -32,6 +34,7 @@
 #include "absl/strings/str_format.h"
 #include "client/cli/eval_command.h"
 #include "client/cli/instances_command.h"
+#include "client/cli/map_option_flags.h"
 #include "client/cli/objects_command.h"
 #include "client/cli/stream_command.h"
 #include "client/cli/transfer_command.h"
@@ -165,6 +168,9 @@ int Maps(MapClient& client, const std::vector<std::string>& args) {
   if (verb == "create") {
     v1::CreateMapRequest request;
     request.set_map_id(id);
+    if (absl::Status s = skimap::client::ApplyMapOptionFlags(request.mutable_options()); !s.ok()) {
+      return Fail(s);
+    }
     request.mutable_options()->set_resolution(ResolutionOr(0.05));
     absl::StatusOr<v1::Map> map = client.CreateMap(request);
     if (!map.ok()) return Fail(map.status());
@@ -316,6 +322,9 @@ int main(int argc, char** argv) {
     options.max_frames = absl::GetFlag(FLAGS_max_frames);
     // eval's maps default to 2 cm (the documented configuration), not stream's 5 cm.
     options.resolution = ResolutionOr(0.02);
+    if (absl::Status s = skimap::client::ApplyMapOptionFlags(&options.map_options); !s.ok()) {
+      return Fail(s);
+    }
     options.score.max_translation = absl::GetFlag(FLAGS_max_translation_mm) / 1000;
     options.score.max_rotation_deg = absl::GetFlag(FLAGS_max_rotation_deg);
     options.csv = absl::GetFlag(FLAGS_csv);
@@ -367,6 +376,9 @@ int main(int argc, char** argv) {
     options.map_id = absl::GetFlag(FLAGS_map);
     options.fps = absl::GetFlag(FLAGS_fps);
     options.resolution = ResolutionOr(0.05);
+    if (absl::Status s = skimap::client::ApplyMapOptionFlags(&options.map_options); !s.ok()) {
+      return Fail(s);
+    }
     options.window = absl::GetFlag(FLAGS_window);
     const std::string recognition = absl::GetFlag(FLAGS_recognition);
     if (recognition == "newest" || recognition == "every_frame") {

@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/cli/dataset_frames.h"
+#include "client/cli/map_option_flags.h"
 
 namespace skimap::client {
 namespace {
@@ -47,6 +48,7 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
   if (absl::IsNotFound(map.status())) {
     v1::CreateMapRequest create;
     create.set_map_id(options.map_id);
+    *create.mutable_options() = options.map_options;
     create.mutable_options()->set_resolution(options.resolution);
     if (options.recognition.has_value()) {
       *create.mutable_options()->mutable_recognition() = *options.recognition;
@@ -54,6 +56,9 @@ absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,
     map = client.CreateMap(create);
   }
   if (!map.ok()) return map.status();
+  if (absl::Status s = CheckMapOptions(options.map_options, map->options(), map_name); !s.ok()) {
+    return s;
+  }
   const uint64_t first_sequence = map->stats().frames();  // continue after earlier streams
 
   const size_t total = frames->size();

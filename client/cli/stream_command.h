@@ -20,10 +20,14 @@ struct StreamOptions {
   std::string map_id;        // created with `resolution` when it does not exist
   double fps = 0;            // pacing; 0 = as fast as the server acknowledges
   double resolution = 0.05;  // metres, only used to create the map
-  int window = 8;            // frames in flight
-  bool quiet = false;        // no progress line; the summary on stderr, not stdout
-  int every = 1;             // send every n-th frame of the dataset
-  int max_frames = 0;        // send at most this many; 0 = all
+  // More options of a map this stream creates (the fields set; resolution and recognition
+  // come from their own fields). Into an existing map, every field set here must agree
+  // with the map's (FailedPrecondition naming the first that does not).
+  v1::MapOptions map_options;
+  int window = 8;      // frames in flight
+  bool quiet = false;  // no progress line; the summary on stderr, not stdout
+  int every = 1;       // send every n-th frame of the dataset
+  int max_frames = 0;  // send at most this many; 0 = all
   // Recognition on the map, when this stream creates it (an existing map keeps its own).
   std::optional<v1::RecognitionOptions> recognition;
   // Depth on the wire (client/frame_depth.h): RVL unless told; PNG16 sends the files as

@@ -123,5 +123,75 @@ TEST(ProcessTest, CliStreamsRealFramesInEveryDepthEncodingAndRefusesAnUnknownOne
   std::filesystem::remove_all(dir);
 }
 
+TEST(ProcessTest, CliSetsEveryMapOptionAndRefusesBadOnesByName) {
+  const ChildServer server = StartSkimapd("skimap_map_options_cli");
+  ASSERT_GE(server.pid, 0);
+  const std::string& dir = server.dir;
+  client::MapClient* client = server.client.get();
+  ASSERT_TRUE(client->WaitForServer(absl::Seconds(20)).ok());
+  // Runs the CLI; its exit code, and its output in *text.
+  auto run = [&](const std::string& args, std::string* text) {
+    const std::string command = absl::StrCat(SKIMAP_CLI_PATH, " --server=", server.address, " ",
+                                             args, " > ", dir, "/out.txt 2>&1");
+    const int code = std::system(command.c_str());
+    std::ifstream out(dir + "/out.txt");
+    std::stringstream buffer;
+    buffer << out.rdbuf();
+    *text = buffer.str();
+    return code;
+  };
+  std::string text;
+  ASSERT_EQ(run("maps create tuned --resolution=0.02 --min_depth=0.3 --max_depth=3.5 "
+                "--min_voxel_weight=2 --band_min_z=0.1 --band_max_z=1.2 --floor_min_z=-0.2 "
+                "--pixel_stride=2 --carve_free_space=false --carve_pixel_stride=8",
+                &text),
+            0)
+      << text;
+  absl::StatusOr<v1::Map> tuned = client->GetMap("maps/tuned");
+  ASSERT_TRUE(tuned.ok()) << tuned.status();
+  const v1::MapOptions& o = tuned->options();
+  EXPECT_DOUBLE_EQ(o.resolution(), 0.02);
+  EXPECT_DOUBLE_EQ(o.min_depth(), 0.3);
+  EXPECT_DOUBLE_EQ(o.max_depth(), 3.5);
+  EXPECT_FLOAT_EQ(o.min_voxel_weight(), 2);
+  EXPECT_DOUBLE_EQ(o.band_min_z(), 0.1);
+  EXPECT_DOUBLE_EQ(o.band_max_z(), 1.2);
+  EXPECT_DOUBLE_EQ(o.floor_min_z(), -0.2);
+  EXPECT_EQ(o.pixel_stride(), 2u);
+  EXPECT_FALSE(o.carve_free_space());
+  EXPECT_EQ(o.carve_pixel_stride(), 8u);
+  // Without flags, the server's defaults: carving on.
+  ASSERT_EQ(run("maps create plain", &text), 0) << text;
+  absl::StatusOr<v1::Map> plain = client->GetMap("maps/plain");
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  EXPECT_TRUE(plain->options().carve_free_space());
+  EXPECT_DOUBLE_EQ(plain->options().band_min_z(), 0.05);
+  // A bad value: the API's message naming the field, nothing created.
+  EXPECT_NE(run("maps create bad --band_min_z=2 --band_max_z=1", &text), 0);
+  EXPECT_NE(text.find("options.band_min_z"), std::string::npos) << text;
+  EXPECT_NE(run("maps create bad --carve_pixel_stride=0", &text), 0);
+  EXPECT_NE(text.find("options.carve_pixel_stride"), std::string::npos) << text;
+  EXPECT_NE(run("maps create bad --band_max_z=high", &text), 0);
+  EXPECT_NE(text.find("--band_max_z: not a number"), std::string::npos) << text;
+  EXPECT_FALSE(client->GetMap("maps/bad").ok());
+  // stream: creates with the flags; into an existing map, a disagreeing flag is refused.
+  const std::string scene = SKIMAP_YCBV_DIR "/test/000000";
+  ASSERT_EQ(
+      run("stream " + scene + " --map=streamed --max_depth=1.2 --carve_free_space=false", &text), 0)
+      << text;
+  absl::StatusOr<v1::Map> streamed = client->GetMap("maps/streamed");
+  ASSERT_TRUE(streamed.ok()) << streamed.status();
+  EXPECT_DOUBLE_EQ(streamed->options().max_depth(), 1.2);
+  EXPECT_EQ(streamed->stats().free_voxels(), 0u);
+  EXPECT_NE(run("stream " + scene + " --map=streamed --max_depth=2", &text), 0);
+  EXPECT_NE(text.find("max_depth"), std::string::npos) << text;
+  EXPECT_EQ(client->GetMap("maps/streamed")->stats().frames(), 10u) << "nothing streamed";
+  ASSERT_EQ(run("stream " + scene + " --map=streamed --max_depth=1.2", &text), 0) << text;
+  EXPECT_EQ(client->GetMap("maps/streamed")->stats().frames(), 20u) << "agreeing flags stream";
+
+  EXPECT_NE(StopSkimapd(server), -1);
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace skimap::testing
