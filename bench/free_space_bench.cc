@@ -70,20 +70,6 @@ server::MapConfig Config(double resolution) {
   return *config;
 }
 
-perception::RgbdFrame Decoded(const RealFrame& f) {
-  perception::RgbdFrame frame;
-  frame.camera = {f.api.intrinsics().fx(), f.api.intrinsics().fy(), f.api.intrinsics().cx(),
-                  f.api.intrinsics().cy(), int(f.depth.width),      int(f.depth.height)};
-  frame.depth = f.depth;
-  frame.color = f.color;
-  frame.depth_scale = f.api.depth_scale();
-  const v1::Pose& p = f.api.pose();
-  frame.pose.translation = {p.translation().x(), p.translation().y(), p.translation().z()};
-  frame.pose.rotation =
-      Eigen::Quaterniond(p.rotation().w(), p.rotation().x(), p.rotation().y(), p.rotation().z());
-  return frame;
-}
-
 struct Column {
   int32_t x, y;
   friend bool operator==(const Column&, const Column&) = default;
@@ -140,7 +126,7 @@ void OctoMapColumns(const octomap::OcTree& tree, const server::MapConfig& config
 
 void Run(const std::string& name, const std::vector<RealFrame>& real, ThreadPool& pool) {
   std::vector<perception::RgbdFrame> frames;
-  for (const RealFrame& f : real) frames.push_back(Decoded(f));
+  for (const RealFrame& f : real) frames.push_back(ToRgbdFrame(f));
   std::printf("\n## %s: %zu frames\n\n", name.c_str(), frames.size());
   std::printf(
       "| voxel | integration ms/frame (median) | free space ms/frame (median) | free / "

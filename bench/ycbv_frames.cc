@@ -17,6 +17,20 @@ namespace {
 
 }  // namespace
 
+perception::RgbdFrame ToRgbdFrame(const RealFrame& f) {
+  perception::RgbdFrame frame;
+  const v1::CameraIntrinsics& k = f.api.intrinsics();
+  frame.camera = {k.fx(), k.fy(), k.cx(), k.cy(), f.depth.width, f.depth.height};
+  frame.depth = f.depth;
+  frame.color = f.color;
+  frame.depth_scale = f.api.depth_scale();
+  const v1::Pose& p = f.api.pose();
+  frame.pose.translation = {p.translation().x(), p.translation().y(), p.translation().z()};
+  frame.pose.rotation =
+      Eigen::Quaterniond(p.rotation().w(), p.rotation().x(), p.rotation().y(), p.rotation().z());
+  return frame;
+}
+
 std::vector<RealFrame> LoadYcbvFrames(const std::string& root, size_t every, size_t limit) {
   absl::StatusOr<std::vector<dataset::Frame>> frames = client::LoadDatasetFrames(root);
   if (!frames.ok()) ExitWith(frames.status().ToString());

@@ -29,6 +29,9 @@ struct RealFrame {
   perception::ColorImage color;
 };
 
+// The frame as the server's stages take it (decoded, with its camera and pose).
+perception::RgbdFrame ToRgbdFrame(const RealFrame& f);
+
 // The frames of the BOP dataset at `root` (every `every`-th, at most `limit`); prints the
 // error and exits when it does not load.
 std::vector<RealFrame> LoadYcbvFrames(const std::string& root, size_t every = 1,

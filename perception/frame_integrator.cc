@@ -1,6 +1,7 @@
 #include "perception/frame_integrator.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <vector>
 
 #include "perception/row_projection.h"
@@ -16,6 +17,9 @@ absl::Status ValidateIntegrationOptions(const IntegrationOptions& o) {
   }
   if (o.pixel_stride < 1 || o.pixel_stride > 64) {
     return absl::InvalidArgumentError("pixel_stride must be in 1..64");
+  }
+  if (!(o.depth_edge_jump >= 0 && o.depth_edge_jump <= 1)) {
+    return absl::InvalidArgumentError("depth_edge_jump must be in [0, 1]");
   }
   return absl::OkStatus();
 }
@@ -48,11 +52,13 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   const Eigen::Vector3d* bases = row_base.data();
   // Per row: pixels with depth in range, and with valid depth outside it (each row is
   // filled by one thread; summed below).
-  thread_local std::vector<uint32_t> row_in, row_out;
-  row_in.assign(rows, 0), row_out.assign(rows, 0);
+  thread_local std::vector<uint32_t> row_in, row_out, row_edges;
+  row_in.assign(rows, 0), row_out.assign(rows, 0), row_edges.assign(rows, 0);
   // (Pointers: the pool's threads must write this thread's arrays, not their own.)
   uint32_t* const in_rows = row_in.data();
   uint32_t* const out_rows = row_out.data();
+  uint32_t* const edge_rows = row_edges.data();
+  const double jump = options.depth_edge_jump;
   // One row: ProjectRow (perception/row_projection.h) computes its keys, the same as
   // Grid::ToKey's, 4 pixels at a time where the CPU has AVX2; strided rows are gathered
   // into a contiguous row first. `shared` is what every row has in common; each row sets
@@ -67,11 +73,33 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   shared.inv_resolution = grid.inv_resolution();
   using Batch = VoxelBatch<RGBWeightedVoxel>;
   static_assert(Batch::kUse == kRowUse && Batch::kNoKey == kRowNoKey && Batch::kSkip == kRowSkip);
-  auto fill_row = [&, shared, in_rows, out_rows](size_t r, Batch::KeyRow keys,
-                                                 RGBWeightedVoxel* obs) {
+  auto fill_row = [&, shared, in_rows, out_rows, edge_rows](size_t r, Batch::KeyRow keys,
+                                                            RGBWeightedVoxel* obs) {
     const size_t first = r * stride * cam.width;
     const uint16_t* row = depth + first;
-    if (stride > 1) {
+    if (jump > 0) {
+      // The row without its flying pixels: d is dropped when a 4-neighbour d' != 0 has
+      // |d - d'| > jump * d.
+      thread_local std::vector<uint16_t> kept;
+      kept.resize(cols);
+      const int v = int(r) * stride;
+      const uint16_t* up = v > 0 ? row - cam.width : nullptr;
+      const uint16_t* down = v + 1 < cam.height ? row + cam.width : nullptr;
+      uint32_t edges = 0;
+      for (int c = 0; c < cols; ++c) {
+        const int u = c * stride;
+        const int d = row[u];
+        const double limit = jump * d;
+        auto far = [&](int n) { return n != 0 && std::abs(d - n) > limit; };
+        const bool edge =
+            d != 0 && ((u > 0 && far(row[u - 1])) || (u + 1 < cam.width && far(row[u + 1])) ||
+                       (up != nullptr && far(up[u])) || (down != nullptr && far(down[u])));
+        kept[c] = edge ? 0 : uint16_t(d);
+        edges += edge;
+      }
+      edge_rows[r] = edges;
+      row = kept.data();
+    } else if (stride > 1) {
       thread_local std::vector<uint16_t> gathered;
       gathered.resize(cols);
       for (int c = 0; c < cols; ++c) gathered[c] = row[size_t(c) * stride];
@@ -95,7 +123,9 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
   };
   batch->AddRows(size_t(rows), size_t(cols), fill_row, pool);
   size_t in_range = 0;
-  for (int r = 0; r < rows; ++r) in_range += row_in[r], stats.out_of_range += row_out[r];
+  for (int r = 0; r < rows; ++r) {
+    in_range += row_in[r], stats.out_of_range += row_out[r], stats.depth_edges += row_edges[r];
+  }
   stats.no_key = batch->rejected();
   stats.points = in_range - stats.no_key;
   batch->Finalize(pool);

@@ -26,6 +26,9 @@ ABSL_FLAG(std::string, pixel_stride, "",
           "maps create / stream / eval: integrate every n-th pixel in rows and columns (1)");
 ABSL_FLAG(std::string, carve_free_space, "",
           "maps create / stream / eval: free space from the rays, true or false (true)");
+ABSL_FLAG(std::string, depth_edge_jump, "",
+          "maps create / stream / eval: drop flying pixels, a depth jump to a neighbour above "
+          "this fraction of the depth, 0..1; 0 keeps all (0.05)");
 ABSL_FLAG(std::string, carve_pixel_stride, "",
           "maps create / stream / eval: carve along every n-th pixel's ray, 1..64 (4)");
 
@@ -74,6 +77,8 @@ absl::Status ApplyMapOptionFlags(v1::MapOptions* o) {
                           [&](int64_t v) { o->set_pixel_stride(as_u32(v)); }),
            Parse<bool>(FLAGS_carve_free_space, "carve_free_space", "true or false", boolean,
                        [&](bool v) { o->set_carve_free_space(v); }),
+           Parse<double>(FLAGS_depth_edge_jump, "depth_edge_jump", "a number", number,
+                         [&](double v) { o->set_depth_edge_jump(v); }),
            Parse<int64_t>(FLAGS_carve_pixel_stride, "carve_pixel_stride", "an integer", count,
                           [&](int64_t v) { o->set_carve_pixel_stride(as_u32(v)); }),
        }) {

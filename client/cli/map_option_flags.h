@@ -3,7 +3,8 @@
 // names, for the maps they create:
 //
 //   --min_depth --max_depth --min_voxel_weight --band_min_z --band_max_z --floor_min_z
-//   --pixel_stride --carve_free_space=true|false --carve_pixel_stride  (--resolution: main)
+//   --pixel_stride --depth_edge_jump --carve_free_space=true|false --carve_pixel_stride
+//   (and --resolution, in main)
 //
 // Only the flags given on the command line are set; the server fills in the rest and
 // validates, so a bad value gets the API's own message ("options.band_min_z ..."). A

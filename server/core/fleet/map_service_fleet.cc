@@ -30,7 +30,7 @@ absl::Status MapService::ClaimMap(const std::string& id) const {
   if (!proto.ParseFromString(stored->options)) {
     return absl::DataLossError(absl::StrCat("map ", MapName(id), ": stored options do not parse"));
   }
-  absl::StatusOr<MapConfig> config = ResolveMapOptions(proto);
+  absl::StatusOr<MapConfig> config = ResolveStoredMapOptions(proto);
   if (!config.ok()) return config.status();
   registry_.Reset(id, *config);  // loaded by the caller's Get: snapshot + journal replay
   return absl::OkStatus();
@@ -45,7 +45,7 @@ void MapService::SyncWithStore() const {
     ids.insert(m.id);
     v1::MapOptions proto;
     if (!proto.ParseFromString(m.options)) continue;
-    absl::StatusOr<MapConfig> config = ResolveMapOptions(proto);
+    absl::StatusOr<MapConfig> config = ResolveStoredMapOptions(proto);
     if (config.ok()) (void)registry_.AddStored(m.id, *config);  // AlreadyExists if known
   }
   // Loaded maps stay: this node holds their lease (a map deleted elsewhere took its lease

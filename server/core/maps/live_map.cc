@@ -255,6 +255,7 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
   ack.set_voxels_touched(written.voxels_touched);
   ack.set_points(stats.points);
   ack.set_points_out_of_range(stats.out_of_range);
+  ack.set_points_at_depth_edges(stats.depth_edges);
   ack.set_points_outside_map(stats.no_key);
   if (stats.points == 0 && stats.no_key > 0) {
     ack.set_message(absl::StrCat("integrated nothing: all ", stats.no_key,

@@ -34,6 +34,12 @@ absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& o) {
   if (o.has_pixel_stride() && (o.pixel_stride() < 1 || o.pixel_stride() > 64)) {
     return BadMapOption("pixel_stride", "must be in 1..64");
   }
+  if (o.has_depth_edge_jump()) {
+    if (!(o.depth_edge_jump() >= 0 && o.depth_edge_jump() <= 1)) {
+      return BadMapOption("depth_edge_jump", "must be in [0, 1]");
+    }
+    c.integration.depth_edge_jump = o.depth_edge_jump();
+  }
   if (o.has_min_voxel_weight()) c.min_voxel_weight = o.min_voxel_weight();
   if (!(c.min_voxel_weight >= 0) || !std::isfinite(c.min_voxel_weight)) {
     return BadMapOption("min_voxel_weight", "must be finite and >= 0");
@@ -61,12 +67,19 @@ absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& o) {
   return c;
 }
 
+absl::StatusOr<MapConfig> ResolveStoredMapOptions(v1::MapOptions o) {
+  // Written before depth_edge_jump existed: its frames were integrated without the filter.
+  if (!o.has_depth_edge_jump()) o.set_depth_edge_jump(0);
+  return ResolveMapOptions(o);
+}
+
 v1::MapOptions ToProto(const MapConfig& c) {
   v1::MapOptions o;
   o.set_resolution(c.resolution);
   o.set_min_depth(c.integration.min_depth);
   o.set_max_depth(c.integration.max_depth);
   o.set_pixel_stride(c.integration.pixel_stride);
+  o.set_depth_edge_jump(c.integration.depth_edge_jump);
   o.set_min_voxel_weight(c.min_voxel_weight);
   o.set_band_min_z(c.band_min_z);
   o.set_band_max_z(c.band_max_z);

@@ -34,6 +34,10 @@ struct MapConfig {
 // Fills the defaults of absent fields and validates. InvalidArgument naming the field
 // ("options.resolution must be in [0.001, 10]").
 absl::StatusOr<MapConfig> ResolveMapOptions(const v1::MapOptions& options);
+// ResolveMapOptions for options a store or an export file holds (written by ToProto, every
+// field of its time set): a field added since takes the value that reproduces how the map's
+// frames were integrated (depth_edge_jump 0), not today's default.
+absl::StatusOr<MapConfig> ResolveStoredMapOptions(v1::MapOptions options);
 // The options message with every field set, as GetMap returns it.
 v1::MapOptions ToProto(const MapConfig& config);
 

@@ -137,7 +137,7 @@ absl::Status MapService::Recover() {
       skip(absl::DataLossError("stored options do not parse"));
       continue;
     }
-    absl::StatusOr<MapConfig> config = ResolveMapOptions(proto);
+    absl::StatusOr<MapConfig> config = ResolveStoredMapOptions(proto);
     if (!config.ok()) {
       skip(config.status());
       continue;

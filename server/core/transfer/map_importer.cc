@@ -63,7 +63,7 @@ absl::Status MapImporter::Begin(const ExportedMap& map) {
   if (!options.ParseFromString(map.options)) {
     return absl::DataLossError("export file: map record: the map options do not parse");
   }
-  absl::StatusOr<MapConfig> config = ResolveMapOptions(options);
+  absl::StatusOr<MapConfig> config = ResolveStoredMapOptions(options);
   if (!config.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("export file: ", config.status().message()));
   }

@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "server/core/maps/map_config.h"
 #include "tests/common/synthetic_scene.h"
 #include "tests/server/maps/server_fixture.h"
 
@@ -57,7 +58,11 @@ TEST_F(ServerTest, OccupancyGridMarksTheBoxAndTheVisibleFloor) {
   ASSERT_TRUE(ack.ok()) << ack.status();
   // Measured 5 862 voxels (2026-11-23); the floor is two thirds of it.
   EXPECT_GT(ack->voxels_touched(), 3900u);
-  EXPECT_EQ(ack->points(), 160u * 120u);
+  // Every pixel has depth; those at the box's silhouette (a depth step) are flying-pixel
+  // candidates and dropped (MapOptions.depth_edge_jump, default 0.05).
+  EXPECT_EQ(ack->points() + ack->points_at_depth_edges(), 160u * 120u);
+  EXPECT_GT(ack->points_at_depth_edges(), 0u);
+  EXPECT_LT(ack->points_at_depth_edges(), 160u * 120u / 20);
 
   v1::GetOccupancyGridRequest request;
   request.set_map("maps/room");
@@ -250,6 +255,36 @@ TEST_F(ServerTest, SecondServerCannotTakeAPortInUse) {
   EXPECT_THAT(second.status().message(), ::testing::HasSubstr(options.grpc.address));
   // The first server still answers.
   EXPECT_TRUE(client_->ListMaps(v1::ListMapsRequest()).ok());
+}
+
+}  // namespace
+}  // namespace skimap::testing
+
+namespace skimap::testing {
+namespace {
+
+// New maps get today's defaults; options a store or an export file holds from before
+// depth_edge_jump existed read 0, the way their frames were integrated (journal replay and
+// UpdatePoses rebuild frames with the map's options and must match what was acknowledged).
+TEST(MapConfigTest, DefaultsForNewMapsAndOptionsStoredBeforeAFieldExisted) {
+  absl::StatusOr<server::MapConfig> fresh = server::ResolveMapOptions(v1::MapOptions());
+  ASSERT_TRUE(fresh.ok()) << fresh.status();
+  EXPECT_TRUE(fresh->carve_free_space);
+  EXPECT_DOUBLE_EQ(fresh->integration.depth_edge_jump, 0.05);
+  v1::MapOptions old = server::ToProto(*fresh);
+  old.clear_depth_edge_jump();  // as written before the field existed
+  old.set_carve_free_space(false);
+  absl::StatusOr<server::MapConfig> stored = server::ResolveStoredMapOptions(old);
+  ASSERT_TRUE(stored.ok()) << stored.status();
+  EXPECT_DOUBLE_EQ(stored->integration.depth_edge_jump, 0);
+  EXPECT_FALSE(stored->carve_free_space);
+  // A stored value is kept; a bad one is refused naming the field.
+  old.set_depth_edge_jump(0.1);
+  EXPECT_DOUBLE_EQ(server::ResolveStoredMapOptions(old)->integration.depth_edge_jump, 0.1);
+  v1::MapOptions bad;
+  bad.set_depth_edge_jump(-0.1);
+  EXPECT_NE(server::ResolveMapOptions(bad).status().message().find("options.depth_edge_jump"),
+            std::string::npos);
 }
 
 }  // namespace
