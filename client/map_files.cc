@@ -41,6 +41,7 @@ absl::Status WriteRosMap(const v1::OccupancyGrid& grid, const std::string& yaml_
   if (grid.data().size() != w * h) {
     return absl::InvalidArgumentError("grid: data size differs from width x height");
   }
+  const bool raw = grid.inflation_radius() > 0;  // a cost grid: the values themselves
   std::string pgm = absl::StrFormat("P5\n# skimap occupancy grid\n%d %d\n255\n", w, h);
   const size_t header = pgm.size();
   pgm.resize(header + w * h);
@@ -48,15 +49,19 @@ absl::Status WriteRosMap(const v1::OccupancyGrid& grid, const std::string& yaml_
     const size_t j = h - 1 - row;  // image top = largest y
     for (size_t i = 0; i < w; ++i) {
       const int8_t cell = static_cast<int8_t>(grid.data()[j * w + i]);
-      pgm[header + row * w + i] = static_cast<char>(cell < 0 ? 205 : cell >= 50 ? 0 : 254);
+      pgm[header + row * w + i] = static_cast<char>(raw          ? uint8_t(cell)
+                                                    : cell < 0   ? 205
+                                                    : cell >= 50 ? 0
+                                                                 : 254);
     }
   }
   const std::string pgm_path = ReplaceExtension(yaml_path, ".pgm");
   if (absl::Status s = WriteFile(pgm_path, pgm); !s.ok()) return s;
   const std::string yaml = absl::StrFormat(
       "image: %s\nresolution: %.9g\norigin: [%.9g, %.9g, 0.0]\nnegate: 0\n"
-      "occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n",
-      FileName(pgm_path), grid.resolution(), grid.origin_x(), grid.origin_y());
+      "occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: %s\n",
+      FileName(pgm_path), grid.resolution(), grid.origin_x(), grid.origin_y(),
+      raw ? "raw" : "trinary");
   return WriteFile(yaml_path, yaml);
 }
 

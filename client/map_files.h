@@ -1,9 +1,12 @@
 // Files written by the `skimap` CLI from query answers.
 //
 // ROS map_server map (WriteRosMap): FILE.yaml + FILE.pgm next to it. The PGM is binary
-// (P5), 8-bit, trinary: 0 occupied, 254 free, 205 unknown; row 0 of the image is the
-// grid's top row (largest y), as map_server expects. The YAML holds image, resolution,
-// origin [x, y, yaw], negate 0, occupied_thresh 0.65, free_thresh 0.196, mode trinary.
+// (P5), 8-bit, trinary: 0 occupied, 254 free, 205 unknown (map_server reads p = (255 - v) /
+// 255: 1.0 > occupied_thresh 0.65, 0.004 < free_thresh 0.196, 0.196 between them); a cost
+// grid (inflation_radius > 0) holds the values themselves (0 free, 1-99 cost, 100 occupied,
+// 255 unknown) for map_server's raw mode. Row 0 of the image is the grid's top row (largest
+// y), as map_server expects. The YAML holds image, resolution, origin [x, y, yaw], negate 0,
+// occupied_thresh 0.65, free_thresh 0.196, mode trinary (raw for a cost grid).
 //
 // Height map (WriteHeightMap): FILE.png (16-bit, value v > 0 means height
 // z_offset + v * 0.001 m, 0 unknown) or FILE.tiff (32-bit float metres, NaN unknown), plus

@@ -6,7 +6,8 @@
 //                                              (creates ID if missing)
 //   maps create, stream and eval also take the MapOptions fields as flags
 //   (--band_min_z, --carve_free_space, ...: client/cli/map_option_flags.h)
-//   skimap grid --map=ID -o FILE.yaml          ROS map_server PGM + YAML (trinary)
+//   skimap grid --map=ID -o FILE.yaml [--inflation_radius=M]   ROS map_server PGM + YAML
+//                                              (trinary; raw costs with inflation)
 //   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
 //   skimap voxels --map=ID -o FILE.ply
 //   skimap export --map=ID -o FILE [--with-journal]   the map as one export file
@@ -49,6 +50,9 @@ ABSL_FLAG(double, resolution, 0,
           "maps create / stream / eval: voxel size in metres (0 = the command's default: "
           "maps create and stream 0.05, eval 0.02)");
 ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
+ABSL_FLAG(double, inflation_radius, 0,
+          "grid: inflate obstacles by this many metres into a cost grid (PGM in map_server's "
+          "raw mode: 0 free, 1-99 cost, 100 occupied, 255 unknown); 0 = trinary");
 ABSL_FLAG(std::string, depth_encoding, "zstd",
           "stream: depth on the wire, lossless: zstd (the fastest for the server, the default), "
           "rvl, png16 (the dataset's files as stored) or raw");
@@ -195,6 +199,9 @@ int Grid(MapClient& client) {
   v1::GetOccupancyGridRequest request;
   request.set_map(MapNameFlag());
   request.set_data_encoding(v1::GRID_ENCODING_ZSTD);  // fewer bytes on the wire
+  if (const double r = absl::GetFlag(FLAGS_inflation_radius); r != 0) {
+    request.set_inflation_radius(r);
+  }
   absl::StatusOr<v1::OccupancyGrid> grid = client.GetOccupancyGrid(request);
   if (!grid.ok()) return Fail(grid.status());
   const std::string out = absl::GetFlag(FLAGS_o);

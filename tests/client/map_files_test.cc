@@ -114,6 +114,25 @@ TEST(MapFilesTest, RosMapIsTrinaryPgmWithTopRowAtMaxY) {
   }
 }
 
+// A cost grid (inflation_radius > 0) is written for map_server's raw mode: each byte is
+// the cell's value, which map_server puts into the int8 data as it is (255 reads -1).
+TEST(MapFilesTest, CostGridIsRawPgm) {
+  v1::OccupancyGrid grid;
+  grid.set_resolution(0.05);
+  grid.set_width(3);
+  grid.set_height(1);
+  grid.set_inflation_radius(0.3);
+  const int8_t cells[3] = {100, 42, -1};
+  grid.set_data(reinterpret_cast<const char*>(cells), 3);
+  const std::string yaml_path = TempPath("costs.yaml");
+  ASSERT_TRUE(WriteRosMap(grid, yaml_path).ok());
+  std::map<std::string, std::string> yaml = ParseYaml(Slurp(yaml_path));
+  EXPECT_EQ(yaml["mode"], "raw");
+  Pgm pgm = ParsePgm(Slurp(TempPath("costs.pgm")));
+  ASSERT_EQ(pgm.pixels.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) EXPECT_EQ(int8_t(pgm.pixels[i]), cells[i]) << i;
+}
+
 TEST(MapFilesTest, HeightMapPngStoresMillimetresAboveOffsetAndZeroForUnknown) {
   v1::HeightMap map;
   map.set_resolution(0.1);

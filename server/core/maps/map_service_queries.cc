@@ -12,6 +12,7 @@
 #include "codec/zstd_frame.h"
 #include "server/core/common/page_token.h"
 #include "server/core/maps/free_space_grid.h"
+#include "server/core/maps/grid_inflation.h"
 #include "server/core/maps/map_service.h"
 #include "server/core/maps/query_box.h"
 #include "skimap/map_queries.h"
@@ -174,6 +175,11 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
     return absl::InvalidArgumentError(
         "band_min_z: need finite floor_min_z <= band_min_z <= band_max_z");
   }
+  const double inflation = request.inflation_radius();
+  if (!(inflation >= 0 && inflation <= 5)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("inflation_radius: must be in [0, 5] metres, not ", inflation));
+  }
   // One frame seeing through a column is evidence enough (not the surface threshold).
   constexpr float kMinFreeFrames = 1;
   if (!v1::GridEncoding_IsValid(request.data_encoding())) {
@@ -181,15 +187,22 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
         absl::StrCat("data_encoding: unknown value ", request.data_encoding()));
   }
   v1::OccupancyGrid out;
+  OccupancyGrid grid;
   absl::Status status = (*map)->Read([&](const MapState& state) {
-    absl::StatusOr<OccupancyGrid> grid = state.grid_cache.Compute(state.rgb, o);
-    if (!grid.ok()) return RasterStatus(grid.status(), "occupancy grid", options_.max_reply_bytes);
-    MarkCarvedCells(state.free, kMinFreeFrames, &*grid);
-    FillGeometry(grid->geometry, state.frames, &out);
-    out.set_data(reinterpret_cast<const char*>(grid->cells.data()), grid->cells.size());
+    absl::StatusOr<OccupancyGrid> computed = state.grid_cache.Compute(state.rgb, o);
+    if (!computed.ok()) {
+      return RasterStatus(computed.status(), "occupancy grid", options_.max_reply_bytes);
+    }
+    grid = *std::move(computed);
+    MarkCarvedCells(state.free, kMinFreeFrames, &grid);
+    FillGeometry(grid.geometry, state.frames, &out);
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
+  // Outside the map's lock, like the compression below.
+  if (inflation > 0) InflateObstacles(inflation / grid.geometry.resolution, &grid);
+  out.set_inflation_radius(inflation);
+  out.set_data(reinterpret_cast<const char*>(grid.cells.data()), grid.cells.size());
   if (request.data_encoding() == v1::GRID_ENCODING_ZSTD) {  // outside the map's lock
     // One zstd frame at level 1: grids compress some 30-100x at a few hundred MB/s.
     absl::StatusOr<std::string> packed = perception::ZstdCompress(out.data());

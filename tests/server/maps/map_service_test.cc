@@ -289,3 +289,57 @@ TEST(MapConfigTest, DefaultsForNewMapsAndOptionsStoredBeforeAFieldExisted) {
 
 }  // namespace
 }  // namespace skimap::testing
+
+namespace skimap::testing {
+namespace {
+
+// GetOccupancyGridRequest.inflation_radius: the box's footprint stays occupied, free cells
+// beside it get costs falling with the distance, far cells stay free, unknown stays
+// unknown; a radius outside [0, 5] m is refused by name.
+TEST_F(ServerTest, InflationMakesACostGridAroundObstacles) {
+  CreateMap("costs");
+  ASSERT_TRUE(client_->IntegrateFrame(MakeFrame("maps/costs", 1, DefaultView())).ok());
+  v1::GetOccupancyGridRequest request;
+  request.set_map("maps/costs");
+  auto* region = request.mutable_region();
+  region->set_min_x(-1.0), region->set_min_y(-1.0), region->set_max_x(2.0), region->set_max_y(1.0);
+  auto trinary = client_->GetOccupancyGrid(request);
+  request.set_inflation_radius(0.3);
+  auto costs = client_->GetOccupancyGrid(request);
+  ASSERT_TRUE(trinary.ok() && costs.ok()) << trinary.status() << costs.status();
+  EXPECT_DOUBLE_EQ(costs->inflation_radius(), 0.3);
+  EXPECT_DOUBLE_EQ(trinary->inflation_radius(), 0);
+  ASSERT_EQ(trinary->data().size(), costs->data().size());
+  const double res = costs->resolution();
+  auto at = [&](const v1::OccupancyGrid& g, double x, double y) {
+    const int i = int(std::floor((x - g.origin_x()) / res));
+    const int j = int(std::floor((y - g.origin_y()) / res));
+    return static_cast<int8_t>(g.data()[j * g.width() + i]);
+  };
+  int costed = 0;
+  for (size_t i = 0; i < costs->data().size(); ++i) {
+    const int8_t before = trinary->data()[i], after = costs->data()[i];
+    if (before != 0) {
+      EXPECT_EQ(after, before) << "only free cells get costs";
+    } else {
+      EXPECT_GE(after, 0);
+      EXPECT_LE(after, 99);
+      costed += after > 0;
+    }
+  }
+  EXPECT_GT(costed, 20);
+  // The box spans x 0.3-0.7 at y in [-0.2, 0.2]; the camera sees its front at x = 0.3.
+  EXPECT_EQ(at(*costs, 0.5, 0.0), 100);
+  const int8_t near = at(*costs, 0.22, 0.0), mid = at(*costs, 0.12, 0.0),
+               far = at(*costs, -0.3, 0.0);
+  EXPECT_GT(near, mid) << "costs fall with the distance";
+  EXPECT_GT(mid, 0);
+  EXPECT_EQ(far, 0) << "beyond the radius";
+  request.set_inflation_radius(7);
+  auto bad = client_->GetOccupancyGrid(request);
+  EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.status().message().find("inflation_radius"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace skimap::testing

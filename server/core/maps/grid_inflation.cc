@@ -1,0 +1,35 @@
+#include "server/core/maps/grid_inflation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+namespace skimap::server {
+
+void InflateObstacles(double radius_cells, OccupancyGrid* grid) {
+  const int w = grid->geometry.width, h = grid->geometry.height;
+  if (w == 0 || h == 0) return;
+  // Distance to the nearest zero pixel: occupied cells are the zeros.
+  cv::Mat mask(h, w, CV_8U);
+  bool any = false;
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      const bool occupied = grid->cells[size_t(j) * w + i] == OccupancyGrid::kOccupied;
+      mask.at<uint8_t>(j, i) = occupied ? 0 : 255;
+      any = any || occupied;
+    }
+  }
+  if (!any) return;
+  cv::Mat distance;
+  cv::distanceTransform(mask, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      int8_t& cell = grid->cells[size_t(j) * w + i];
+      const double d = distance.at<float>(j, i);
+      if (cell != OccupancyGrid::kFree || d > radius_cells) continue;
+      cell = int8_t(1 + std::lround(98 * (radius_cells - d) / radius_cells));
+    }
+  }
+}
+
+}  // namespace skimap::server

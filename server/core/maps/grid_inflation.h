@@ -1,0 +1,25 @@
+// Obstacle inflation: an occupancy grid made cost-valued for planners that take costs
+// (nav2 costmaps, move_base), as GetOccupancyGridRequest.inflation_radius asks.
+//
+//   InflateObstacles(0.3 / grid.geometry.resolution, &grid);
+//
+// Every free cell whose centre lies within `radius_cells` cells of an occupied cell's
+// centre gets the cost 1 + round(98 * (r - d) / r) for its distance d (99 beside the
+// obstacle, falling linearly to 1 at the radius); the distance is OpenCV's exact Euclidean
+// distance transform (cv::DIST_L2, cv::DIST_MASK_PRECISE). Occupied cells stay 100,
+// unknown cells stay unknown (-1), free cells beyond the radius stay 0.
+//
+// Thread safety: a plain function over the caller's grid.
+#ifndef SERVER_CORE_MAPS_GRID_INFLATION_H_
+#define SERVER_CORE_MAPS_GRID_INFLATION_H_
+
+#include "skimap/map_queries.h"
+
+namespace skimap::server {
+
+// REQUIRES: radius_cells > 0.
+void InflateObstacles(double radius_cells, OccupancyGrid* grid);
+
+}  // namespace skimap::server
+
+#endif  // SERVER_CORE_MAPS_GRID_INFLATION_H_
