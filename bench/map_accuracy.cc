@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
         const auto [accuracy, median] = Within(ours.points_, surface_tree, diagonal);
         const auto [completeness, unused] = Within(surface->points_, ours_tree, diagonal);
         std::printf("| %g cm | %g | %zu | %g | %zu | %zu | %.3f | %.3f | %.1f |\n", res * 100, jump,
-                    dropped / frames.size(), min_weight, ours.points_.size(),
+                    dropped / std::max<size_t>(frames.size(), 1), min_weight, ours.points_.size(),
                     surface->points_.size(), accuracy, completeness, median * 1000);
         std::fflush(stdout);
       }

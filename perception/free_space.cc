@@ -192,10 +192,10 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   // batch does not depend on the pool.
   const size_t pieces = pool == nullptr ? 1 : 4 * size_t(pool->workers() + 1);
   // Angles are measured from the optical axis's azimuth (any azimuth when it looks
-  // straight down), so a camera's fan does not straddle the +-pi seam.
+  // straight down), so a camera's fan does not straddle the +-pi seam; a steep camera
+  // whose rays point all around gets the seam moved into its widest gap below.
   const Eigen::Vector3d axis = rot.col(2);
-  const double reference =
-      std::hypot(axis.x(), axis.y()) > 1e-9 ? std::atan2(axis.y(), axis.x()) : 0.0;
+  double reference = std::hypot(axis.x(), axis.y()) > 1e-9 ? std::atan2(axis.y(), axis.x()) : 0.0;
   // Pass 1: every ray's slab part as a fan ray. The ray through pixel (u, v) is
   // base + du * u + dv * v in the world (not normalised).
   const Eigen::Vector3d du = rot.col(0) / cam.fx, dv = rot.col(1) / cam.fy;

@@ -44,8 +44,9 @@ struct FreeSpaceOptions {
 };
 
 struct FreeSpaceStats {
-  size_t rays = 0;     // rays walked (they reached into the slab)
-  size_t columns = 0;  // distinct columns the frame's rays crossed
+  size_t rays = 0;     // rays whose part reaches into the slab
+  size_t columns = 0;  // columns in the frame's fan (and the camera's own, when a ray starts
+                       // there): the batch's items
 };
 
 // InvalidArgument naming the bad option ("carve_pixel_stride", "band").

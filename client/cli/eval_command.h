@@ -6,7 +6,7 @@
 //               [--csv=FILE] [--instances_dir=DIR] [--summary=FILE] [--keep_maps]
 //               [--single_view=true]
 //               [--train [--detector=SIFT] [--classes_per_object=K] [--trees=T]
-//               [--max_depth=D] [--frame_stride=N]]
+//               [--tree_depth=D] [--frame_stride=N]]
 //
 // Multi-view (the product): each test scene is streamed into a fresh map with recognition
 // on (policy EVERY_FRAME: every frame is recognised, so the result does not depend on the

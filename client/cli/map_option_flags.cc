@@ -54,7 +54,8 @@ absl::Status Parse(const absl::Flag<std::string>& flag, const char* name, const 
 
 absl::Status ApplyMapOptionFlags(v1::MapOptions* o) {
   auto number = [](absl::string_view t, double* v) { return absl::SimpleAtod(t, v); };
-  // Negative or huge counts are sent as they are, for the server's range message.
+  // Counts outside uint32 are clamped (a negative one to 0), so the server answers with
+  // its range message.
   auto count = [](absl::string_view t, int64_t* v) { return absl::SimpleAtoi(t, v); };
   auto boolean = [](absl::string_view t, bool* v) { return absl::SimpleAtob(t, v); };
   auto as_u32 = [](int64_t v) {

@@ -8,7 +8,7 @@
 //       DATASET is a BOP root (every train/<id>/ object, or only --object) or, with
 //       --object, one BOP scene folder. Frames are streamed from this machine; with
 //       --on_server the server reads DATASET from its own disk (a long-running operation).
-//   skimap objects build [--classes_per_object=K] [--trees=T] [--max_depth=D]
+//   skimap objects build [--classes_per_object=K] [--trees=T] [--tree_depth=D]
 //       builds the classifier and waits, printing progress
 //   skimap objects classifier                  the classifier's state
 //

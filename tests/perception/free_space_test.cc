@@ -161,6 +161,18 @@ TEST(FreeSpaceTest, NarrowGapsOfMissingDepthAreBridgedWideOnesAreNot) {
   EXPECT_TRUE(Free(wide, 2.5, 0.8)) << "beside the hole";
 }
 
+TEST(FreeSpaceTest, ACameraLookingStraightDownCarvesAllAroundWithoutASeam) {
+  // 1.2 m up (in the band), looking down: the rays fan out all around the camera's column
+  // and hit the floor 0.3-0.8 m away (the image's half-diagonal is 37 degrees).
+  const RgbdFrame f =
+      Frame(LookingAlong({0, 0, 1.2}, {0.001, 0, -1}), SceneBox{{50, 50, 0}, {51, 51, 1}});
+  const auto cols = Carve(f, {.pixel_stride = 2});
+  for (double angle = 0; angle < 2 * M_PI; angle += M_PI / 16) {
+    EXPECT_TRUE(Free(cols, 0.2 * std::cos(angle), 0.2 * std::sin(angle))) << angle;
+  }
+  EXPECT_FALSE(Free(cols, 1.5, 0));
+}
+
 TEST(FreeSpaceTest, APoolGivesTheSameBatch) {
   ThreadPool pool(2);
   for (const Eigen::Isometry3d& pose :

@@ -20,14 +20,18 @@ void InflateObstacles(double radius_cells, OccupancyGrid* grid) {
     }
   }
   if (!any) return;
+  // A radius of a whole number of cells in metres (0.3 m at 5 cm) divides to just below it.
+  const double r = radius_cells + 1e-9;
   cv::Mat distance;
   cv::distanceTransform(mask, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
   for (int j = 0; j < h; ++j) {
     for (int i = 0; i < w; ++i) {
       int8_t& cell = grid->cells[size_t(j) * w + i];
       const double d = distance.at<float>(j, i);
-      if (cell != OccupancyGrid::kFree || d > radius_cells) continue;
-      cell = int8_t(1 + std::lround(98 * (radius_cells - d) / radius_cells));
+      if (cell != OccupancyGrid::kFree || d > r) continue;
+      // d >= 1 for a free cell: 99 beside the obstacle, 1 at the radius.
+      const double t = r > 1 ? (r - d) / (r - 1) : 1.0;
+      cell = int8_t(std::clamp<long>(1 + std::lround(98 * t), 1, 99));
     }
   }
 }

@@ -262,9 +262,13 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
                                  " points fall outside the map's key range"));
   } else if (stats.points == 0) {
     const perception::IntegrationOptions& o = options_.config.integration;
-    ack.set_message(absl::StrCat("integrated nothing: no depth pixel in [", o.min_depth, ", ",
-                                 o.max_depth, "] m (", stats.out_of_range,
-                                 " valid pixels outside it)"));
+    ack.set_message(absl::StrCat(
+        "integrated nothing: no depth pixel in [", o.min_depth, ", ", o.max_depth, "] m (",
+        stats.out_of_range, " valid pixels outside it",
+        stats.depth_edges > 0
+            ? absl::StrCat(", ", stats.depth_edges, " dropped at depth edges (depth_edge_jump)")
+            : "",
+        ")"));
   }
   SetDuration(Clock::now() - start, ack.mutable_integration_time());
   if (options_.metrics != nullptr && source == Source::kAppend) {
