@@ -146,9 +146,12 @@ TEST(FrameIntegratorTest, RowWiseBatchEqualsThePerPixelFormulation) {
     }
   }
   ThreadPool pool(2);
-  for (const auto& [frame, jump] :
+  for (const auto& variant :
        {std::pair(&f, 0.0), std::pair(&smooth, 0.0), std::pair(&smooth, 0.05)})
     for (const double resolution : {0.01, 0.05}) {
+      // (Plain variables: clang 14 lambdas cannot capture structured bindings.)
+      const RgbdFrame* const frame = variant.first;
+      const double jump = variant.second;
       for (const int stride : {1, 3}) {
         const Grid grid(resolution);
         IntegrationOptions options;
