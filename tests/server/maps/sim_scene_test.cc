@@ -29,11 +29,12 @@ class SimSceneTest : public ::testing::Test {
     server_ = StartServer().release();
     client_ =
         client::MapClient::Connect(absl::StrCat("127.0.0.1:", server_->grpc_port())).release();
-    // "sim" has the default options (free-space carving on), "plain" carves nothing.
-    for (const char* id : {"sim", "plain"}) {
+    // "sim" has the default options (free-space carving on), "plain" carves nothing,
+    // "sim5": the defaults at 5 cm.
+    for (const char* id : {"sim", "plain", "sim5"}) {
       v1::CreateMapRequest create;
       create.set_map_id(id);
-      create.mutable_options()->set_resolution(kResolution);
+      create.mutable_options()->set_resolution(id == std::string("sim5") ? 0.05 : kResolution);
       if (id == std::string("plain")) create.mutable_options()->set_carve_free_space(false);
       ASSERT_TRUE(client_->CreateMap(create).ok());
       StreamWithCli(server_->grpc_port(), *scene_, id);
@@ -98,24 +99,28 @@ double FractionWithin(const std::vector<double>& v, double value, double toleran
   return double(n) / v.size();
 }
 
-TEST_F(SimSceneTest, OccupancyGridMarksWallsAndTableAndFreesOpenFloor) {
-  const v1::OccupancyGrid grid = Grid("maps/sim", 0.05, 1.5);  // the map's default band
-  ASSERT_GT(grid.width(), 0u);
-  const SceneGeometry& g = *geometry_;
+// The grid against the scene's floor plan, per cell: walls and the table top occupied,
+// open floor free, every occupied cell explained by a box of the room.
+struct FloorPlanAgreement {
+  CellCount walls, table, open_floor, explained, all;
+};
+
+FloorPlanAgreement CompareWithFloorPlan(const v1::OccupancyGrid& grid, const SceneGeometry& g) {
+  FloorPlanAgreement a;
   const double tol = grid.resolution();
-  const CellCount walls = CountCells(grid, [&](double x, double y) {
+  a.walls = CountCells(grid, [&](double x, double y) {
     for (const GeometryBox& b : g.OfKind("wall")) {
       if (b.FootprintDistance(x, y) <= tol) return true;
     }
     return false;
   });
   const GeometryBox top = g.OfKind("table_top").at(0);
-  const CellCount table = CountCells(grid, [&](double x, double y) {
+  a.table = CountCells(grid, [&](double x, double y) {
     return x > top.min[0] + tol && x < top.max[0] - tol && y > top.min[1] + tol &&
            y < top.max[1] - tol;
   });
   // Floor cells inside the room, 10 cm or more from every piece of furniture.
-  const CellCount open_floor = CountCells(grid, [&](double x, double y) {
+  a.open_floor = CountCells(grid, [&](double x, double y) {
     return x > g.room_min[0] && x < g.room_max[0] && y > g.room_min[1] && y < g.room_max[1] &&
            g.FurnitureDistance(x, y) >= 0.10;
   });
@@ -123,27 +128,50 @@ TEST_F(SimSceneTest, OccupancyGridMarksWallsAndTableAndFreesOpenFloor) {
   // stand on tables and shelves, so their footprints are inside the furniture's). 10 cm:
   // the far walls are 3-4 m from the camera, where the sensor's noise is 2-4 cm and its
   // disparity steps 3-4 cm.
-  const CellCount explained =
+  a.explained =
       CountCells(grid, [&](double x, double y) { return g.FurnitureDistance(x, y) <= 0.10; });
-  const CellCount all = CountCells(grid, [](double, double) { return true; });
+  a.all = CountCells(grid, [](double, double) { return true; });
   std::printf(
-      "walls %d/%d occupied, table %d/%d, open floor %d/%d free, occupied %d/%d explained\n",
-      walls.occupied, walls.observed, table.occupied, table.observed, open_floor.free,
-      open_floor.observed, explained.occupied, all.occupied);
+      "%g cm: walls %d/%d occupied, table %d/%d, open floor %d/%d free, occupied %d/%d "
+      "explained\n",
+      grid.resolution() * 100, a.walls.occupied, a.walls.observed, a.table.occupied,
+      a.table.observed, a.open_floor.free, a.open_floor.observed, a.explained.occupied,
+      a.all.occupied);
+  return a;
+}
 
-  // Measured 2026-11-23: walls 1376/1386 occupied, table 1838/1914, open floor 9976/9976
-  // free, occupied 6498/6498 explained. Counts: floors at two thirds. Fractions near 1:
-  // two thirds of the value would allow a third of the cells wrong, so the floors bound
-  // the error rate instead (walls 0.7 % -> <= 3 %, table 4.0 % kept at <= 7 %, floor and
-  // explained 0 % -> <= 1 %).
-  EXPECT_GE(walls.observed, 925) << "the orbit sees at least two walls";
-  EXPECT_GE(walls.OccupiedFraction(), 0.97);
-  EXPECT_GE(table.observed, 1275);
+TEST_F(SimSceneTest, OccupancyGridMarksWallsAndTableAndFreesOpenFloor) {
+  const v1::OccupancyGrid grid = Grid("maps/sim", 0.05, 1.5);  // the map's default band
+  ASSERT_GT(grid.width(), 0u);
+  const FloorPlanAgreement a = CompareWithFloorPlan(grid, *geometry_);
+  // Measured 2026-11-28 (defaults: carving on): walls 1230/1244 occupied, table 1885/1914,
+  // open floor 16410/16410 free, occupied 5407/5407 explained. Counts: floors at two
+  // thirds. Fractions near 1: two thirds of the value would allow a third of the cells
+  // wrong, so the floors bound the error rate instead (walls 1.1 % -> <= 3 %, table 1.5 %
+  // kept at <= 7 %, floor and explained 0 % -> <= 1 %).
+  EXPECT_GE(a.walls.observed, 825) << "the orbit sees at least two walls";
+  EXPECT_GE(a.walls.OccupiedFraction(), 0.97);
+  EXPECT_GE(a.table.observed, 1275);
   // A few cells near the top's edges show only the floor seen under the top: free.
-  EXPECT_GE(table.OccupiedFraction(), 0.93);
-  EXPECT_GE(open_floor.observed, 6650);
-  EXPECT_GE(open_floor.FreeFraction(), 0.99);
-  EXPECT_GE(double(explained.occupied) / all.occupied, 0.99);
+  EXPECT_GE(a.table.OccupiedFraction(), 0.93);
+  EXPECT_GE(a.open_floor.observed, 10900) << "carved free space (9991 without carving)";
+  EXPECT_GE(a.open_floor.FreeFraction(), 0.99);
+  EXPECT_GE(double(a.explained.occupied) / a.all.occupied, 0.99);
+}
+
+TEST_F(SimSceneTest, OccupancyGridAt5cmAgreesWithTheFloorPlanToo) {
+  const v1::OccupancyGrid grid = Grid("maps/sim5", 0.05, 1.5);
+  ASSERT_GT(grid.width(), 0u);
+  const FloorPlanAgreement a = CompareWithFloorPlan(grid, *geometry_);
+  // Measured 2026-11-28: walls 406/410 occupied, table 262/264, open floor 2679/2679 free,
+  // occupied 1042/1042 explained. Counts at two thirds; error rates bounded as at 2 cm.
+  EXPECT_GE(a.walls.observed, 270);
+  EXPECT_GE(a.walls.OccupiedFraction(), 0.97);
+  EXPECT_GE(a.table.observed, 175);
+  EXPECT_GE(a.table.OccupiedFraction(), 0.93);
+  EXPECT_GE(a.open_floor.observed, 1785);
+  EXPECT_GE(a.open_floor.FreeFraction(), 0.99);
+  EXPECT_GE(double(a.explained.occupied) / a.all.occupied, 0.99);
 }
 
 TEST_F(SimSceneTest, LowBandGridMarksTableLegsWhereTheGeometrySays) {
