@@ -1,5 +1,5 @@
 // map_accuracy: how close a SkiMap map lies to the surface an independent reconstruction
-// finds in the same frames (issue 33; docs/benchmarks.md, "Map accuracy"). A plain program,
+// finds in the same frames (docs/benchmarks.md, "Map accuracy"). A plain program,
 // not a test; runs on any BOP scene or root, or TUM folder, with poses:
 //
 //   build/bench/bench/map_accuracy [--dataset=DIR] [--every=1 --limit=1000]

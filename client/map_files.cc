@@ -11,6 +11,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "codec/ros_map_pixel.h"
 
 namespace skimap::client {
 namespace {
@@ -49,10 +50,7 @@ absl::Status WriteRosMap(const v1::OccupancyGrid& grid, const std::string& yaml_
     const size_t j = h - 1 - row;  // image top = largest y
     for (size_t i = 0; i < w; ++i) {
       const int8_t cell = static_cast<int8_t>(grid.data()[j * w + i]);
-      pgm[header + row * w + i] = static_cast<char>(raw          ? uint8_t(cell)
-                                                    : cell < 0   ? 205
-                                                    : cell >= 50 ? 0
-                                                                 : 254);
+      pgm[header + row * w + i] = static_cast<char>(RosMapPixel(cell, raw));
     }
   }
   const std::string pgm_path = ReplaceExtension(yaml_path, ".pgm");

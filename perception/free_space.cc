@@ -87,7 +87,7 @@ struct Fan {
 // Bins the rays (bins one column wide at the farthest reach) and fills the bins between two
 // neighbouring rays (at most max_gap apart) with what both carved: the fan between two
 // neighbouring rays is free up to the nearer one.
-Fan MakeFan(std::vector<FanRay>& rays, double res, double max_gap, bool from_camera) {
+Fan MakeFan(const std::vector<FanRay>& rays, double res, double max_gap, bool from_camera) {
   Fan fan;
   double max_angle = -kPi;
   fan.min_angle = kPi;
@@ -150,6 +150,20 @@ Fan MakeFan(std::vector<FanRay>& rays, double res, double max_gap, bool from_cam
   return fan;
 }
 
+// Splits [0, n) into `pieces` contiguous ranges and runs fn(piece, begin, end) for each, on
+// the pool's threads when there is one.
+template <class Fn>
+void ForPieces(ThreadPool* pool, size_t n, size_t pieces, Fn&& fn) {
+  auto run = [&](size_t first, size_t last) {
+    for (size_t p = first; p < last; ++p) fn(p, n * p / pieces, n * (p + 1) / pieces);
+  };
+  if (pool == nullptr || pool->workers() == 0 || pieces == 1) {
+    run(0, pieces);
+  } else {
+    pool->ParallelFor(pieces, run);
+  }
+}
+
 }  // namespace
 
 absl::Status ValidateFreeSpaceOptions(const FreeSpaceOptions& o) {
@@ -160,20 +174,6 @@ absl::Status ValidateFreeSpaceOptions(const FreeSpaceOptions& o) {
     return absl::InvalidArgumentError("band: carving needs finite min_z <= max_z");
   }
   return absl::OkStatus();
-}
-
-// Splits [0, n) into `pieces` contiguous ranges and runs fn(piece, begin, end) for each, on
-// the pool's threads when there is one.
-template <class Fn>
-static void ForPieces(ThreadPool* pool, size_t n, size_t pieces, Fn&& fn) {
-  auto run = [&](size_t first, size_t last) {
-    for (size_t p = first; p < last; ++p) fn(p, n * p / pieces, n * (p + 1) / pieces);
-  };
-  if (pool == nullptr || pool->workers() == 0 || pieces == 1) {
-    run(0, pieces);
-  } else {
-    pool->ParallelFor(pieces, run);
-  }
 }
 
 FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
@@ -192,10 +192,12 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   // batch does not depend on the pool.
   const size_t pieces = pool == nullptr ? 1 : 4 * size_t(pool->workers() + 1);
   // Angles are measured from the optical axis's azimuth (any azimuth when it looks
-  // straight down), so a camera's fan does not straddle the +-pi seam; a steep camera
-  // whose rays point all around gets the seam moved into its widest gap below.
+  // straight down), so a camera's fan does not straddle the +-pi seam unless its rays point
+  // all around it (a camera looking down past the nadir): bins across the seam are not
+  // joined, and the rays of the bins beside it cover it (FreeSpaceTest, straight down).
   const Eigen::Vector3d axis = rot.col(2);
-  double reference = std::hypot(axis.x(), axis.y()) > 1e-9 ? std::atan2(axis.y(), axis.x()) : 0.0;
+  const double reference =
+      std::hypot(axis.x(), axis.y()) > 1e-9 ? std::atan2(axis.y(), axis.x()) : 0.0;
   // Pass 1: every ray's slab part as a fan ray. The ray through pixel (u, v) is
   // base + du * u + dv * v in the world (not normalised).
   const Eigen::Vector3d du = rot.col(0) / cam.fx, dv = rot.col(1) / cam.fy;

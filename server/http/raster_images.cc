@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "codec/ros_map_pixel.h"
 
 namespace skimap::server {
 namespace {
@@ -46,12 +47,7 @@ absl::StatusOr<std::string> EncodeOccupancyGrid(const v1::OccupancyGrid& grid,
     const int j = h - 1 - row;  // image top = largest y
     for (int i = 0; i < w; ++i) {
       const int8_t cell = static_cast<int8_t>(grid.data()[size_t(j) * w + i]);
-      // Trinary as map_saver writes it; a cost grid as the values (map_server's raw mode,
-      // 255 = unknown).
-      image.at<uint8_t>(row, i) = grid.inflation_radius() > 0 ? uint8_t(cell)
-                                  : cell < 0                  ? 205
-                                  : cell >= 50                ? 0
-                                                              : 254;
+      image.at<uint8_t>(row, i) = RosMapPixel(cell, grid.inflation_radius() > 0);
     }
   }
   return Encode(image, format == RasterFormat::kPgm ? ".pgm" : ".png");
