@@ -32,6 +32,26 @@ inline VoxelSet Voxels(client::MapClient& client, const std::string& map) {
   return out;
 }
 
+// "same" when equal, else the sizes and how many voxels differ (for readable failures:
+// EXPECT_EQ(Compare(a, b), "same")).
+inline std::string Compare(const VoxelSet& a, const VoxelSet& b) {
+  if (a == b) return "same";
+  size_t only_a = 0, only_b = 0;
+  std::string first;  // the first voxel only in `a` (x y z weight rgb)
+  for (const auto& v : a) {
+    if (b.count(v)) continue;
+    if (only_a++ == 0) {
+      first = std::to_string(std::get<0>(v)) + " " + std::to_string(std::get<1>(v)) + " " +
+              std::to_string(std::get<2>(v)) + " weight " + std::to_string(std::get<3>(v)) +
+              " rgb " + std::to_string(std::get<4>(v));
+    }
+  }
+  for (const auto& v : b) only_b += !a.count(v);
+  return "sizes " + std::to_string(a.size()) + " and " + std::to_string(b.size()) + ", " +
+         std::to_string(only_a) + " voxels only in the first (the first: " + first + "), " +
+         std::to_string(only_b) + " only in the second";
+}
+
 }  // namespace skimap::testing
 
 #endif  // TESTS_COMMON_VOXEL_SET_H_

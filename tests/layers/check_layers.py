@@ -41,7 +41,9 @@ LAYERS = {
     'http':        (['server/http/'], ['skimap_http'], ['core', 'proto']),
     'app':         (['server/app/'], ['skimap_server', 'skimapd'], ['grpc', 'http', 'core']),
     'client':      (['client/'], ['skimap_client'], ['proto', 'codec', 'base']),
-    'cli':         (['client/cli/'], ['skimap_cli'], ['client', 'dataset']),
+    'bag':         (['ros/bag/'], ['skimap_bag'], ['proto', 'codec', 'base']),
+    'cli':         (['client/cli/'], ['skimap_cli'], ['client', 'dataset', 'bag']),
+    'rosbridge':   (['ros/bridge/'], ['skimap_ros_bridge', 'skimap-ros'], ['client', 'bag']),
     'tools':       (['tools/'], ['skimap-load'], ['proto']),
 }
 # Headers a layer must not include at all, whatever it links: the cores are transport
@@ -56,7 +58,7 @@ FORBIDDEN_SYSTEM = {
     'recognition': [r'^grpcpp/', r'\.pb\.h$', r'^sqlite3\.h$', r'^libpq-fe\.h$'],
 }
 PRODUCTION = ['base', 'codec', 'skimap', 'dataset', 'sim', 'perception', 'storage', 'server',
-              'client', 'tools']
+              'ros', 'client', 'tools']
 INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^">]+)[">]', re.M)
 
 

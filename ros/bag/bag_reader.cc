@@ -1,0 +1,52 @@
+#include "ros/bag/bag_reader.h"
+
+#include "ros/bag/bag_frames.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+
+namespace skimap::bag {
+
+bool IsBagPath(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) return fs::exists(fs::path(path) / "metadata.yaml", ec);
+  return absl::EndsWith(path, ".bag") || absl::EndsWith(path, ".mcap");
+}
+
+absl::StatusOr<std::unique_ptr<BagReader>> OpenBag(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return absl::NotFoundError(absl::StrCat("no bag at ", path));
+  if (fs::is_directory(path, ec)) {
+    std::vector<std::string> files;
+    for (const fs::directory_entry& e : fs::directory_iterator(path, ec)) {
+      if (e.is_regular_file() && e.path().extension() == ".mcap") files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+    if (files.empty()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          path, ": a rosbag2 folder without .mcap files (the sqlite3 storage is not read: "
+                "convert with `ros2 bag convert` to mcap)"));
+    }
+    return OpenMcapBag(files);
+  }
+  std::ifstream in(path, std::ios::binary);
+  char magic[13] = {};
+  in.read(magic, sizeof magic);
+  const absl::string_view head(magic, in.gcount());
+  if (absl::StartsWith(head, "#ROSBAG V2.0")) return OpenRos1Bag(path);
+  if (absl::StartsWith(head, "\x89MCAP0\r\n")) return OpenMcapBag({path});
+  if (absl::StartsWith(head, "#ROSBAG")) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": a ROS 1 bag of another version than 2.0 (`rosbag fix` it)"));
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(path, ": neither a ROS 1 bag (#ROSBAG V2.0) nor an MCAP file"));
+}
+
+}  // namespace skimap::bag

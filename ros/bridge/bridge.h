@@ -1,0 +1,87 @@
+// Bridge: the skimap-ros node. A robot's RGB-D camera in, skimapd's map out.
+//
+// In (topics relative to the node's namespace, remappable):
+//   depth/image        sensor_msgs/Image, 16UC1 (mm) or 32FC1 (m), registered to colour
+//   rgb/image          sensor_msgs/Image rgb8 / bgr8 / rgba8 / bgra8 / mono8, or with
+//                      ~compressed_color rgb/image/compressed, a sensor_msgs/CompressedImage
+//   rgb/camera_info    sensor_msgs/CameraInfo
+//   pose_updates       nav_msgs/Path: corrected camera poses (fixed frame) after a loop
+//                      closure, each stamped as the frame it corrects; forwarded to
+//                      UpdatePoses (stamps of frames the map does not hold are counted)
+// The three camera topics are paired by message_filters (ApproximateTime); each frame's
+// camera pose is tf's fixed frame <- the depth image's frame at its stamp, waited for up to
+// ~tf_wait. Frames go to skimapd through FrameSender (bounded, drop-and-count).
+//
+// Out, at ~publish_rate when the map changed (latched):
+//   map                nav_msgs/OccupancyGrid, cell for cell skimapd's grid
+//   height_map         sensor_msgs/Image 32FC1 (+ height_map/info, nav_msgs/MapMetaData)
+//   instances          visualization_msgs/MarkerArray (recognition maps), and tf frames
+//                      object_<id> (fixed frame <- object model)
+//   trajectory         nav_msgs/Path of the acknowledged frames
+// Services: ~instances_in_box, ~instances_in_sphere (skimap_ros/InstancesIn*), ~save_map
+// (skimap_ros/SaveMap, only with ~save_dir set).
+//
+// Parameters (private): BridgeParams below, read by ReadParams; docs/ros.md lists them.
+//
+// Thread safety: callbacks run on a multi-threaded spinner; the members they share are
+// thread safe (FrameSender, MapClient) or atomic.
+#ifndef ROS_BRIDGE_BRIDGE_H_
+#define ROS_BRIDGE_BRIDGE_H_
+
+#include <ros/ros.h>
+
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "client/map_client.h"
+#include "ros/bridge/frame_sender.h"
+
+namespace skimap::rosbridge {
+
+struct BridgeParams {
+  std::string server = "127.0.0.1:50051";
+  std::string token_file, tls_ca, tls_cert, tls_key;  // client/channel.h
+  std::string map = "ros";          // map id; created when missing
+  double resolution = 0.05;         // metres, for a map the bridge creates
+  bool recognition = false;         // recognition on a map the bridge creates
+  std::string fixed_frame = "map";  // poses, grids and markers are in this frame
+  std::string camera_frame;         // "" = the depth image's header.frame_id
+  double tf_wait = 0.1;             // seconds to wait for a frame's transform
+  bool compressed_color = false;
+  int sync_queue = 10;              // message_filters queue per topic
+  std::string depth_encoding = "zstd";  // zstd | rvl | png16 | raw
+  int window = 8;                   // frames in flight to skimapd
+  int queue_frames = 2;             // frames waiting to be sent; more are dropped
+  double publish_rate = 1.0;        // Hz; 0 = never
+  double inflation_radius = 0;      // metres, the grid's obstacle inflation
+  bool publish_height_map = true;
+  std::string save_dir;             // ~save_map writes under it; "" = the service is off
+  std::string stats_file;           // at exit: counters and latencies as JSON
+};
+
+// Reads the private parameters; InvalidArgument naming the parameter for a bad value.
+absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& private_nh);
+
+class Bridge {
+ public:
+  // Connects to skimapd (waits up to 30 s), creates or opens the map, subscribes and
+  // advertises. Unavailable / the server's error otherwise.
+  static absl::StatusOr<std::unique_ptr<Bridge>> Start(ros::NodeHandle nh,
+                                                       ros::NodeHandle private_nh,
+                                                       const BridgeParams& params);
+  ~Bridge();
+
+  // Waits for the frames in flight, writes ~stats_file, logs the summary.
+  void Finish();
+
+  class Impl;
+
+ private:
+  explicit Bridge(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace skimap::rosbridge
+
+#endif  // ROS_BRIDGE_BRIDGE_H_

@@ -1,0 +1,239 @@
+// `skimap stream BAG` end to end: a ROS 1 bag written with the rosbag C++ API and ROS 2
+// MCAP bags written by an independent writer (npm's @mcap/core with
+// @foxglove/rosmsg2-serialization: tests/ros/mcap_writer) from the real YCB-Video frames,
+// streamed by the CLI into a real skimapd: the map holds exactly the voxels of the same
+// frames sent as API frames (tests/ros/ros_test_data.h). Hostile bags: truncated, an
+// image whose size does not match its data, an unsupported encoding, no camera_info, an
+// ambiguous topic choice: refused by name, the map holds only what was acknowledged.
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "client/map_client.h"
+#include "tests/common/skimapd_process.h"
+#include "tests/common/voxel_set.h"
+#include "tests/ros/ros_test_data.h"
+
+namespace skimap::testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Run {
+  int status = -1;
+  std::string output;  // stdout and stderr
+};
+
+Run RunCommand(const std::string& command) {
+  Run r;
+  FILE* p = popen((command + " 2>&1").c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
+  r.status = pclose(p);
+  return r;
+}
+
+class BagStreamTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    frames_ = LoadMmFrames(SKIMAP_YCBV_DIR);
+    ASSERT_EQ(frames_.size(), 10u);
+    dir_ = fs::temp_directory_path() / absl::StrCat("bag_stream_test_", getpid());
+    fs::create_directories(dir_);
+    ASSERT_TRUE(server_.Start().ok());
+    client_ = client::MapClient::Connect(server_.address());
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // The reference: the frames as API frames, into map `id` at 2 cm.
+  VoxelSet Reference(const std::string& id) {
+    v1::CreateMapRequest create;
+    create.set_map_id(id);
+    create.mutable_options()->set_resolution(0.02);
+    EXPECT_TRUE(client_->CreateMap(create).ok());
+    for (const MmFrame& f : frames_) {
+      auto ack = client_->IntegrateFrame(ReferenceFrame(f, "maps/" + id, f.index));
+      EXPECT_TRUE(ack.ok()) << ack.status();
+    }
+    return Voxels(*client_, "maps/" + id);
+  }
+
+  Run Stream(const std::string& bag, const std::string& map, const std::string& flags = "") {
+    return RunCommand(absl::StrCat(SKIMAP_CLI_PATH, " --server=", server_.address(), " stream ",
+                                   bag, " --map=", map, " --resolution=0.02 ", flags));
+  }
+
+  uint64_t Frames(const std::string& map) {
+    auto m = client_->GetMap("maps/" + map);
+    return m.ok() ? m->stats().frames() : 0;
+  }
+
+  // Writes a ROS 1 bag of the frames; `edit` may change each frame's messages.
+  std::string WriteRos1Bag(const std::string& name,
+                           const std::function<void(int, sensor_msgs::Image*,
+                                                    sensor_msgs::Image*)>& edit = nullptr,
+                           bool with_info = true) {
+    const std::string path = (dir_ / name).string();
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    bag.write("/tf_static", ros::Time(1000.0), LinkToOptical());
+    for (const MmFrame& f : frames_) {
+      sensor_msgs::Image depth = DepthMessage(f), color = ColorMessage(f);
+      if (edit) edit(f.index, &depth, &color);
+      bag.write("/tf", f.stamp, WorldToLink(f));
+      if (with_info) bag.write("/camera/color/camera_info", f.stamp, InfoMessage(f));
+      bag.write("/camera/aligned_depth_to_color/image_raw", f.stamp, depth);
+      bag.write("/camera/color/image_raw", f.stamp, color);
+    }
+    bag.close();
+    return path;
+  }
+
+  std::vector<MmFrame> frames_;
+  fs::path dir_;
+  SkimapdProcess server_{SKIMAPD_PATH, {"--worker_threads=1"}};
+  std::unique_ptr<client::MapClient> client_;
+};
+
+TEST_F(BagStreamTest, Ros1BagStreamsTheVoxelsOfItsFrames) {
+  const std::string bag = WriteRos1Bag("frames.bag");
+  const Run run = Stream(bag, "ros1");
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("streamed 10 frames"), std::string::npos) << run.output;
+  // The topics and frames it chose by itself, named.
+  EXPECT_NE(run.output.find("/camera/aligned_depth_to_color/image_raw"), std::string::npos);
+  EXPECT_NE(run.output.find("poses in world"), std::string::npos) << run.output;
+  const VoxelSet streamed = Voxels(*client_, "maps/ros1");
+  const VoxelSet reference = Reference("ros1_ref");
+  EXPECT_GT(reference.size(), 10000u);
+  EXPECT_EQ(Compare(streamed, reference), "same");
+}
+
+TEST_F(BagStreamTest, EveryAndMaxFramesApplyToBags) {
+  const std::string bag = WriteRos1Bag("frames.bag");
+  const Run run = Stream(bag, "some", "--every=3 --max_frames=3");
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_EQ(Frames("some"), 3u);
+}
+
+TEST_F(BagStreamTest, McapBagsOfAnIndependentWriterStreamTheVoxelsOfTheirFrames) {
+  const VoxelSet reference = Reference("mcap_ref");
+  const std::vector<std::pair<std::string, std::string>> variants = {
+      {"zstd", "--compression zstd"},
+      {"lz4", "--compression lz4"},
+      {"plain", "--compression none --unchunked"},
+      {"png", "--compression zstd --color compressed"},
+      {"float", "--compression zstd --depth-format 32FC1"},
+  };
+  for (const auto& [name, flags] : variants) {
+    SCOPED_TRACE(name);
+    const std::string bag = (dir_ / (name + ".mcap")).string();
+    const Run write = RunCommand(absl::StrCat("node ", SKIMAP_MCAP_WRITER, " ", SKIMAP_YCBV_DIR,
+                                              " ", bag, " ", flags));
+    ASSERT_EQ(write.status, 0) << write.output;
+    const Run run = Stream(bag, name);
+    ASSERT_EQ(run.status, 0) << run.output;
+    EXPECT_EQ(Compare(Voxels(*client_, "maps/" + name), reference), "same");
+  }
+}
+
+TEST_F(BagStreamTest, ATruncatedBagStopsWithTheFramesBeforeTheDamage) {
+  const std::string whole = WriteRos1Bag("whole.bag");
+  const std::string cut = (dir_ / "cut.bag").string();
+  fs::copy_file(whole, cut);
+  fs::resize_file(cut, fs::file_size(whole) / 2);
+  const Run run = Stream(cut, "cut");
+  EXPECT_NE(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("cut.bag"), std::string::npos) << run.output;
+  EXPECT_LT(Frames("cut"), 10u);
+  EXPECT_TRUE(server_.Running());
+
+  // The same for an MCAP bag cut in its data section.
+  const std::string mcap = (dir_ / "whole.mcap").string();
+  ASSERT_EQ(RunCommand(absl::StrCat("node ", SKIMAP_MCAP_WRITER, " ", SKIMAP_YCBV_DIR, " ",
+                                    mcap, " --compression zstd")).status,
+            0);
+  const std::string mcap_cut = (dir_ / "cut.mcap").string();
+  fs::copy_file(mcap, mcap_cut);
+  fs::resize_file(mcap_cut, fs::file_size(mcap) * 2 / 3);
+  const Run mcap_run = Stream(mcap_cut, "mcap_cut");
+  EXPECT_NE(mcap_run.status, 0) << mcap_run.output;
+  EXPECT_NE(mcap_run.output.find("cut.mcap"), std::string::npos) << mcap_run.output;
+  EXPECT_LT(Frames("mcap_cut"), 10u);
+}
+
+TEST_F(BagStreamTest, AnImageNotMatchingItsDataIsRefusedByTopicAndTheRestStreams) {
+  const std::string bag = WriteRos1Bag("short.bag", [](int i, sensor_msgs::Image* depth,
+                                                       sensor_msgs::Image*) {
+    if (i == 4) depth->data.resize(1000);
+  });
+  const Run run = Stream(bag, "short");
+  EXPECT_NE(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("/camera/aligned_depth_to_color/image_raw: data holds 1000 bytes"),
+            std::string::npos)
+      << run.output;
+  EXPECT_EQ(Frames("short"), 9u);
+}
+
+TEST_F(BagStreamTest, AnUnsupportedEncodingIsNamed) {
+  const std::string bag = WriteRos1Bag("yuv.bag", [](int, sensor_msgs::Image*,
+                                                     sensor_msgs::Image* color) {
+    color->encoding = "yuv422";
+  });
+  const Run run = Stream(bag, "yuv");
+  EXPECT_NE(run.status, 0);
+  EXPECT_NE(run.output.find("/camera/color/image_raw: colour encoding \"yuv422\""),
+            std::string::npos)
+      << run.output;
+  EXPECT_EQ(Frames("yuv"), 0u);
+}
+
+TEST_F(BagStreamTest, ABagWithoutCameraInfoIsRefusedBeforeStreaming) {
+  const std::string bag = WriteRos1Bag("noinfo.bag", nullptr, /*with_info=*/false);
+  const Run run = Stream(bag, "noinfo");
+  EXPECT_NE(run.status, 0);
+  EXPECT_NE(run.output.find("camera_info"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("--camera_info_topic"), std::string::npos) << run.output;
+}
+
+TEST_F(BagStreamTest, TwoDepthTopicsAskForTheFlagAndTheFlagChooses) {
+  const std::string path = (dir_ / "two.bag").string();
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    bag.write("/tf_static", ros::Time(1000.0), LinkToOptical());
+    for (const MmFrame& f : frames_) {
+      bag.write("/tf", f.stamp, WorldToLink(f));
+      bag.write("/front/depth/image_raw", f.stamp, DepthMessage(f));
+      bag.write("/back/depth/image_raw", f.stamp, DepthMessage(f));
+      bag.write("/front/depth/camera_info", f.stamp, InfoMessage(f));
+      bag.write("/back/depth/camera_info", f.stamp, InfoMessage(f));
+    }
+  }
+  const Run ambiguous = Stream(path, "two");
+  EXPECT_NE(ambiguous.status, 0);
+  EXPECT_NE(ambiguous.output.find("/back/depth/image_raw, /front/depth/image_raw"),
+            std::string::npos)
+      << ambiguous.output;
+  EXPECT_NE(ambiguous.output.find("--depth_topic"), std::string::npos);
+  const Run chosen = Stream(path, "two", "--depth_topic=/front/depth/image_raw");
+  ASSERT_EQ(chosen.status, 0) << chosen.output;
+  EXPECT_EQ(Frames("two"), 10u);
+  EXPECT_NE(chosen.output.find("colour (none)"), std::string::npos) << chosen.output;
+}
+
+TEST_F(BagStreamTest, NotABagIsRefusedByName) {
+  const std::string path = (dir_ / "junk.bag").string();
+  std::ofstream(path) << "this is not a bag";
+  const Run run = Stream(path, "junk");
+  EXPECT_NE(run.status, 0);
+  EXPECT_NE(run.output.find("junk.bag: neither a ROS 1 bag"), std::string::npos) << run.output;
+}
+
+}  // namespace
+}  // namespace skimap::testing
