@@ -9,7 +9,10 @@ pkgs=(build-essential cmake ninja-build ccache lld pkg-config clang-format
   libturbojpeg0-dev libssl-dev openssl libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
   prometheus-cpp-dev
   clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql
-  chromium python3-matplotlib)
+  chromium python3-matplotlib
+  libroscpp-dev librosbag-dev libtf2-ros-dev libmessage-filters-dev libsensor-msgs-dev
+  libnav-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev liblz4-dev
+  python3-gencpp python3-rosmaster python3-roslaunch)
 if [[ "${1:-}" == "--bench" ]]; then
   pkgs+=(liboctomap-dev libopenvdb-dev libnanoflann-dev libpcl-dev libopen3d-dev)
 fi
@@ -23,6 +26,8 @@ if ((${#missing[@]})); then
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+# The ROS 1 (Noetic) libraries Debian ships: the skimap-ros bridge and bag reading (ros/;
+# docs/ros.md), gencpp for its service types, rosmaster and roslaunch for its tests.
 # postgresql: the PostgreSQL tests start throwaway servers of their own
 # (tests/common/postgres_server.h); the package's default cluster is not used.
 # chromium: the viewer's browser test (tests/web) drives Debian's chromium headless.
@@ -33,7 +38,10 @@ if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
 fi
-node_client="$(dirname "$0")/../tests/interop/node"
-if [[ ! -d "$node_client/node_modules" || "$node_client/package-lock.json" -nt "$node_client/node_modules" ]]; then
-  (cd "$node_client" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
-fi
+# tests/ros/mcap_writer: the independent MCAP (ROS 2 bag) writer of the ros/bag tests.
+for node_dir in tests/interop/node tests/ros/mcap_writer; do
+  node_dir="$(dirname "$0")/../$node_dir"
+  if [[ ! -d "$node_dir/node_modules" || "$node_dir/package-lock.json" -nt "$node_dir/node_modules" ]]; then
+    (cd "$node_dir" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
+  fi
+done

@@ -231,6 +231,7 @@ class Bridge::Impl {
   }
 
   void OnFrame(const Image& depth, const bag::ColorMessage& color, const CameraInfo& info) {
+    const Clock::time_point received = Clock::now();
     const std::string& camera =
         params_.camera_frame.empty() ? depth.header.frame_id : params_.camera_frame;
     geometry_msgs::TransformStamped T;
@@ -260,7 +261,7 @@ class Bridge::Impl {
       ROS_WARN_THROTTLE(5, "skimap-ros: frame refused: %s", std::string(s.message()).c_str());
       return;
     }
-    sender_->Offer(std::move(frame->frame), depth.header.stamp.toNSec());
+    sender_->Offer(std::move(frame->frame), depth.header.stamp.toNSec(), received);
   }
 
   void OnPoseUpdates(const nav_msgs::Path::ConstPtr& path) {

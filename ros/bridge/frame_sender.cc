@@ -20,14 +20,14 @@ FrameSender::~FrameSender() {
   thread_.join();
 }
 
-bool FrameSender::Offer(v1::Frame frame, int64_t stamp_ns) {
+bool FrameSender::Offer(v1::Frame frame, int64_t stamp_ns, Clock::time_point received) {
   std::lock_guard<std::mutex> lock(mu_);
   ++stats_.offered;
   if (stop_ || queue_.size() >= size_t(std::max(1, options_.queue_frames))) {
     ++stats_.dropped;
     return false;
   }
-  queue_.push_back(Queued{std::move(frame), stamp_ns, Clock::now()});
+  queue_.push_back(Queued{std::move(frame), stamp_ns, received});
   cv_.notify_all();
   return true;
 }

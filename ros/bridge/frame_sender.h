@@ -38,7 +38,7 @@ struct SenderStats {
   uint64_t lost = 0;          // in flight when a stream failed
   uint64_t reconnects = 0;
   std::string last_error;
-  // Offer to ack, milliseconds, of the acknowledged frames (all of them, for percentiles).
+  // Received (Offer's argument) to ack, milliseconds, of the acknowledged frames.
   std::vector<double> latencies_ms;
 };
 
@@ -60,9 +60,11 @@ class FrameSender {
   FrameSender(client::MapClient* client, const Options& options);  // client not owned
   ~FrameSender();  // stops the stream (frames still queued are not sent)
 
-  // Queues `frame` (map and sequence are set here) stamped `stamp_ns`; false if the queue
-  // was full and the frame dropped.
-  bool Offer(v1::Frame frame, int64_t stamp_ns);
+  using Clock = std::chrono::steady_clock;
+  // Queues `frame` (map and sequence are set here) stamped `stamp_ns`, which reached the
+  // node at `received` (the latency's start); false if the queue was full and the frame
+  // dropped.
+  bool Offer(v1::Frame frame, int64_t stamp_ns, Clock::time_point received);
 
   SenderStats Stats() const;
   // The acknowledged frames in sequence order, and a counter that changes when it does.
@@ -75,7 +77,6 @@ class FrameSender {
   bool WaitIdle(std::chrono::milliseconds timeout);
 
  private:
-  using Clock = std::chrono::steady_clock;
   struct Queued {
     v1::Frame frame;
     int64_t stamp_ns;
