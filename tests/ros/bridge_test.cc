@@ -6,6 +6,8 @@
 // UpdatePoses does; the services answer; a frame the bridge cannot pose is counted, not
 // sent.
 #include <gtest/gtest.h>
+#include <nav_msgs/MapMetaData.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
@@ -105,6 +107,7 @@ class BridgeTest : public ::testing::Test {
                                      "_stats_file:=" + (dir_ / "stats.json").string(),
                                      "depth/image:=/cam/depth",
                                      "rgb/image:=/cam/rgb",
+                                     "rgb/image/compressed:=/cam/rgb/compressed",
                                      "rgb/camera_info:=/cam/info"};
     args.insert(args.end(), extra.begin(), extra.end());
     SpawnOptions options;
@@ -129,9 +132,13 @@ class BridgeTest : public ::testing::Test {
   }
 
   // Publishes the frames at ~10 Hz once the bridge listens, tf first.
-  void PublishFrames(ros::NodeHandle& nh, const std::vector<int>& skip_tf = {}) {
+  // With `compressed`, colour goes as PNG (a sensor_msgs/CompressedImage).
+  void PublishFrames(ros::NodeHandle& nh, const std::vector<int>& skip_tf = {},
+                     bool compressed = false) {
     ros::Publisher depth = nh.advertise<sensor_msgs::Image>("/cam/depth", 10);
-    ros::Publisher rgb = nh.advertise<sensor_msgs::Image>("/cam/rgb", 10);
+    ros::Publisher rgb = compressed
+                             ? nh.advertise<sensor_msgs::CompressedImage>("/cam/rgb/compressed", 10)
+                             : nh.advertise<sensor_msgs::Image>("/cam/rgb", 10);
     ros::Publisher info = nh.advertise<sensor_msgs::CameraInfo>("/cam/info", 10);
     ros::Publisher tf = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
     ros::Publisher tf_static = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
@@ -147,7 +154,18 @@ class BridgeTest : public ::testing::Test {
       }
       ros::WallDuration(0.02).sleep();
       depth.publish(DepthMessage(f));
-      rgb.publish(ColorMessage(f));
+      if (compressed) {
+        sensor_msgs::CompressedImage png;
+        png.header = DepthMessage(f).header;
+        png.format = "rgb8; png compressed bgr8";
+        cv::Mat rgb_image(f.height, f.width, CV_8UC3, const_cast<uint8_t*>(f.rgb.data()));
+        cv::Mat bgr;
+        cv::cvtColor(rgb_image, bgr, cv::COLOR_RGB2BGR);
+        cv::imencode(".png", bgr, png.data);
+        rgb.publish(png);
+      } else {
+        rgb.publish(ColorMessage(f));
+      }
       info.publish(InfoMessage(f));
       ros::WallDuration(0.1).sleep();
     }
@@ -196,6 +214,18 @@ TEST_F(BridgeTest, LiveTopicsMakeTheMapAndMapIsSkimapdsGridCellForCell) {
         std::lock_guard<std::mutex> lock(mu);
         last_path = *p;
       });
+  sensor_msgs::Image last_height;
+  nav_msgs::MapMetaData last_height_info;
+  ros::Subscriber height_sub = nh.subscribe<sensor_msgs::Image>(
+      ns_ + "/height_map", 5, [&](const sensor_msgs::Image::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mu);
+        last_height = *m;
+      });
+  ros::Subscriber height_info_sub = nh.subscribe<nav_msgs::MapMetaData>(
+      ns_ + "/height_map/info", 5, [&](const nav_msgs::MapMetaData::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mu);
+        last_height_info = *m;
+      });
   StartBridge("live");
   PublishFrames(nh);
   ASSERT_TRUE(WaitFor([&] { return Frames("live") == 10; }, 60)) << BridgeLog();
@@ -231,6 +261,20 @@ TEST_F(BridgeTest, LiveTopicsMakeTheMapAndMapIsSkimapdsGridCellForCell) {
     // Measured 2026-11-28: 82 occupied and 498 free cells at 2 cm; floors at two thirds.
     EXPECT_GT(occupied, 54u);
     EXPECT_GT(free_cells, 332u);
+    // The height map: skimapd's heights, as a 32FC1 image with its metadata.
+    v1::GetHeightMapRequest height_request;
+    height_request.set_map("maps/live");
+    auto heights = client_->GetHeightMap(height_request);
+    ASSERT_TRUE(heights.ok()) << heights.status();
+    EXPECT_EQ(last_height.encoding, "32FC1");
+    EXPECT_EQ(last_height.width, heights->width());
+    EXPECT_EQ(last_height.height, heights->height());
+    ASSERT_EQ(last_height.data.size(), size_t(heights->heights_size()) * 4);
+    EXPECT_EQ(std::memcmp(last_height.data.data(), heights->heights().data(),
+                          last_height.data.size()),
+              0);
+    EXPECT_EQ(last_height_info.width, heights->width());
+    EXPECT_DOUBLE_EQ(last_height_info.origin.position.x, heights->origin_x());
     ASSERT_EQ(last_path.poses.size(), 10u);
     EXPECT_EQ(last_path.poses[3].header.stamp, frames_[3].stamp);
     EXPECT_NEAR(last_path.poses[3].pose.position.x, frames_[3].T_wc.translation().x(), 1e-9);
@@ -306,6 +350,14 @@ TEST_F(BridgeTest, LiveTopicsMakeTheMapAndMapIsSkimapdsGridCellForCell) {
   text << stats.rdbuf();
   EXPECT_NE(text.str().find("\"acked\": 10"), std::string::npos) << text.str();
   EXPECT_NE(text.str().find("\"dropped\": 0"), std::string::npos) << text.str();
+}
+
+TEST_F(BridgeTest, CompressedColourMakesTheSameMap) {
+  ros::NodeHandle nh;
+  StartBridge("png", {"_compressed_color:=true"});
+  PublishFrames(nh, {}, /*compressed=*/true);
+  ASSERT_TRUE(WaitFor([&] { return Frames("png") == 10; }, 60)) << BridgeLog();
+  EXPECT_EQ(Compare(Voxels(*client_, "maps/png"), Reference("png_ref")), "same");
 }
 
 TEST_F(BridgeTest, AFrameWithoutAPoseIsCountedNotSent) {
