@@ -47,8 +47,7 @@ pid_t Spawn(const std::vector<std::string>& args, const std::string& log) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   if (!log.empty()) {
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND,
-                                     0600);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0600);
     posix_spawn_file_actions_adddup2(&actions, 1, 2);
   }
   pid_t pid = -1;
@@ -100,11 +99,11 @@ BridgeRun RunBridge(const std::vector<MmFrame>& frames, int count, double rate,
   BridgeRun run;
   run.rate = rate;
   const std::string ns = "/" + map;
-  const pid_t bridge = Spawn({SKIMAP_ROS_PATH, "__ns:=" + ns, "__name:=skimap_ros",
-                              "_server:=" + server, "_map:=" + map, "_resolution:=0.02",
-                              "_fixed_frame:=world", "_publish_rate:=1.0",
-                              "_stats_file:=" + (dir / (map + ".json")).string()},
-                             (dir / (map + ".log")).string());
+  const pid_t bridge =
+      Spawn({SKIMAP_ROS_PATH, "__ns:=" + ns, "__name:=skimap_ros", "_server:=" + server,
+             "_map:=" + map, "_resolution:=0.02", "_fixed_frame:=world", "_publish_rate:=1.0",
+             "_stats_file:=" + (dir / (map + ".json")).string()},
+            (dir / (map + ".log")).string());
   ros::NodeHandle nh;
   ros::Publisher depth = nh.advertise<sensor_msgs::Image>(ns + "/depth/image", 30);
   ros::Publisher rgb = nh.advertise<sensor_msgs::Image>(ns + "/rgb/image", 30);
@@ -163,12 +162,12 @@ int main(int argc, char** argv) {
   const int master_port = skimap::testing::FreePort();
   setenv("ROS_MASTER_URI", absl::StrCat("http://127.0.0.1:", master_port).c_str(), 1);
   setenv("ROS_IP", "127.0.0.1", 1);
-  const pid_t master = Spawn({"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p",
-                              std::to_string(master_port)},
-                             (dir / "master.log").string());
+  const pid_t master =
+      Spawn({"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p", std::to_string(master_port)},
+            (dir / "master.log").string());
   const std::string server = absl::StrCat("127.0.0.1:", skimap::testing::FreePort());
-  const pid_t skimapd = Spawn({SKIMAPD_PATH, "--address=" + server, "--http_address=",
-                               "--data_dir=" + (dir / "data").string()},
+  const pid_t skimapd = Spawn({SKIMAPD_PATH, "--address=" + server,
+                               "--http_address=", "--data_dir=" + (dir / "data").string()},
                               (dir / "skimapd.log").string());
   auto client = skimap::client::MapClient::Connect(server);
   if (!client->WaitForServer(absl::Seconds(30)).ok()) {
@@ -191,13 +190,12 @@ int main(int argc, char** argv) {
         "frames/s of publishing), dropped %.0f, no pose %.0f; latency p50 %.1f ms p95 %.1f "
         "ms max %.1f ms; bridge CPU %.2f s = %.1f ms/frame, %.0f%% of a core over its %.1f s; "
         "map frames %llu\n",
-        r > 0 ? absl::StrCat(r, " Hz").c_str() : "full speed", run.published,
-        run.publish_seconds, run.published / run.publish_seconds, acked,
-        acked / run.publish_seconds, JsonNumber(run.stats, "dropped"),
-        JsonNumber(run.stats, "no_pose"), JsonNumber(run.stats, "latency_p50_ms"),
-        JsonNumber(run.stats, "latency_p95_ms"), JsonNumber(run.stats, "latency_max_ms"),
-        run.cpu, acked > 0 ? 1e3 * run.cpu / acked : 0, 100 * run.cpu / wall, wall,
-        (unsigned long long)run.map_frames);
+        r > 0 ? absl::StrCat(r, " Hz").c_str() : "full speed", run.published, run.publish_seconds,
+        run.published / run.publish_seconds, acked, acked / run.publish_seconds,
+        JsonNumber(run.stats, "dropped"), JsonNumber(run.stats, "no_pose"),
+        JsonNumber(run.stats, "latency_p50_ms"), JsonNumber(run.stats, "latency_p95_ms"),
+        JsonNumber(run.stats, "latency_max_ms"), run.cpu, acked > 0 ? 1e3 * run.cpu / acked : 0,
+        100 * run.cpu / wall, wall, (unsigned long long)run.map_frames);
   }
 
   // The same frames as a ROS 1 bag, through the CLI.
@@ -213,9 +211,9 @@ int main(int argc, char** argv) {
       bag.write("/camera/color/image_raw", f.stamp, skimap::testing::ColorMessage(f));
     }
   }
-  const pid_t cli = Spawn({SKIMAP_CLI_PATH, "--server=" + server, "stream", bag_path,
-                           "--map=cli", "--resolution=0.02"},
-                          (dir / "cli.log").string());
+  const pid_t cli = Spawn(
+      {SKIMAP_CLI_PATH, "--server=" + server, "stream", bag_path, "--map=cli", "--resolution=0.02"},
+      (dir / "cli.log").string());
   const double cli_cpu = Reap(cli);
   const std::string cli_log = Slurp(dir / "cli.log");
   std::smatch m;

@@ -1,9 +1,9 @@
 #include "client/cli/dataset_frames.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
-#include <sstream>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
@@ -14,11 +14,14 @@ namespace skimap::client {
 namespace {
 
 absl::StatusOr<std::string> ReadBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return absl::NotFoundError(absl::StrCat("cannot read ", path));
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  return bytes.str();
+  std::string bytes(static_cast<size_t>(in.tellg()), '\0');
+  in.seekg(0);
+  if (!in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()))) {
+    return absl::NotFoundError(absl::StrCat("cannot read ", path));
+  }
+  return bytes;
 }
 
 }  // namespace
@@ -46,6 +49,17 @@ absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string&
     return absl::NotFoundError(absl::StrCat(path, ": no BOP scene or TUM sequence found"));
   }
   return frames;
+}
+
+std::vector<dataset::Frame> KeepEvery(std::vector<dataset::Frame> frames, int every,
+                                      int max_frames) {
+  if (every <= 1 && max_frames <= 0) return frames;
+  std::vector<dataset::Frame> kept;
+  for (size_t i = 0; i < frames.size(); i += std::max(1, every)) {
+    if (max_frames > 0 && static_cast<int>(kept.size()) >= max_frames) break;
+    kept.push_back(std::move(frames[i]));
+  }
+  return kept;
 }
 
 absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string& map_name,

@@ -22,6 +22,11 @@ namespace skimap::client {
 // root (every scene of every split, in order). NotFound / InvalidArgument from the reader.
 absl::StatusOr<std::vector<dataset::Frame>> LoadDatasetFrames(const std::string& path);
 
+// Every `every`-th frame of `frames` from the first, at most max_frames (0: all): the
+// frames `skimap stream` and `skimap eval` send.
+std::vector<dataset::Frame> KeepEvery(std::vector<dataset::Frame> frames, int every,
+                                      int max_frames);
+
 // Reads the frame's files into a Frame for `map_name` with `sequence`, depth with
 // `depth_encoding` (PNG16: the file's bytes as stored; ZSTD / RVL / RAW_U16: decoded and
 // re-encoded). FailedPrecondition if the frame has no pose or no depth image; NotFound for

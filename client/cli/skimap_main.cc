@@ -2,8 +2,12 @@
 //
 //   skimap [--server=localhost:50051] maps ls | maps create ID [--resolution=0.05]
 //                                     | maps rm ID | maps info ID
-//   skimap stream DATASET --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=zstd]
-//                                              (creates ID if missing)
+//   skimap stream DATASET|BAG --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=zstd]
+//                                              (creates ID if missing; BAG: a ROS 1 .bag,
+//                                              a ROS 2 .mcap or rosbag2 folder, with
+//                                              --depth_topic, --color_topic,
+//                                              --camera_info_topic, --fixed_frame,
+//                                              --camera_frame, --sync_tolerance: docs/ros.md)
 //   maps create, stream and eval also take the MapOptions fields as flags
 //   (--band_min_z, --carve_free_space, ...: client/cli/map_option_flags.h)
 //   skimap grid --map=ID -o FILE.yaml [--inflation_radius=M]   ROS map_server PGM + YAML
@@ -68,8 +72,19 @@ ABSL_FLAG(std::string, objects, "", "instances: only these obj_ids, e.g. 1,5");
 ABSL_FLAG(double, min_score, 0, "instances: minimum score");
 ABSL_FLAG(bool, json, false, "instances: JSON in the BOP convention (R row-major, t in mm)");
 ABSL_FLAG(std::string, scenes, "", "eval: test scene folder names, comma-separated (default all)");
-ABSL_FLAG(int, every, 1, "eval: stream every n-th frame");
-ABSL_FLAG(int, max_frames, 0, "eval: frames per scene at most (0 = all)");
+ABSL_FLAG(int, every, 1, "stream / eval: send every n-th frame");
+ABSL_FLAG(int, max_frames, 0, "stream: frames at most; eval: frames per scene at most (0 = all)");
+ABSL_FLAG(std::string, depth_topic, "",
+          "stream BAG: the depth image topic (default: chosen from the bag; docs/ros.md)");
+ABSL_FLAG(std::string, color_topic, "",
+          "stream BAG: the colour image topic, raw or compressed (- for none)");
+ABSL_FLAG(std::string, camera_info_topic, "", "stream BAG: the depth camera's camera_info");
+ABSL_FLAG(std::string, fixed_frame, "",
+          "stream BAG: tf frame the poses are in (default: the root of the camera's tree)");
+ABSL_FLAG(std::string, camera_frame, "",
+          "stream BAG: the camera's tf frame (default: the depth image's frame_id)");
+ABSL_FLAG(double, sync_tolerance, 0.02,
+          "stream BAG: seconds between a depth image and the colour image it pairs with");
 ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this distance");
 ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
 ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
@@ -279,7 +294,9 @@ std::vector<char*> NormalizeFlagNames(int argc, char** argv, std::vector<std::st
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage(
       "skimap [--server=host:port] maps ls|create ID|rm ID|info ID\n"
-      "       skimap stream DATASET --map=ID [--fps=N]\n"
+      "       skimap stream DATASET|BAG --map=ID [--fps=N] [--every=N] [--max_frames=N] "
+      "[--depth_topic=T --color_topic=T --camera_info_topic=T --fixed_frame=F "
+      "--camera_frame=F --sync_tolerance=S]\n"
       "       skimap grid --map=ID -o FILE.yaml\n"
       "       skimap heightmap --map=ID -o FILE.png|FILE.tiff\n"
       "       skimap voxels --map=ID -o FILE.ply\n"
@@ -387,6 +404,21 @@ int main(int argc, char** argv) {
       return Fail(s);
     }
     options.window = absl::GetFlag(FLAGS_window);
+    options.every = absl::GetFlag(FLAGS_every);
+    options.max_frames = absl::GetFlag(FLAGS_max_frames);
+    if (options.every < 1) return Fail(absl::InvalidArgumentError("--every must be >= 1"));
+    if (options.max_frames < 0) {
+      return Fail(absl::InvalidArgumentError("--max_frames must be >= 0"));
+    }
+    options.bag.depth_topic = absl::GetFlag(FLAGS_depth_topic);
+    options.bag.color_topic = absl::GetFlag(FLAGS_color_topic);
+    options.bag.camera_info_topic = absl::GetFlag(FLAGS_camera_info_topic);
+    options.bag.fixed_frame = absl::GetFlag(FLAGS_fixed_frame);
+    options.bag.camera_frame = absl::GetFlag(FLAGS_camera_frame);
+    options.bag.sync_tolerance = absl::GetFlag(FLAGS_sync_tolerance);
+    if (!(options.bag.sync_tolerance >= 0)) {
+      return Fail(absl::InvalidArgumentError("--sync_tolerance must be >= 0 seconds"));
+    }
     const std::string recognition = absl::GetFlag(FLAGS_recognition);
     if (recognition == "newest" || recognition == "every_frame") {
       options.recognition.emplace();

@@ -7,12 +7,11 @@
 
 #include <optional>
 #include <string>
-#include <vector>
 
 #include "absl/status/status.h"
+#include "client/cli/frame_source.h"
 #include "client/frame_depth.h"
 #include "client/map_client.h"
-#include "dataset/types.h"
 
 namespace skimap::client {
 
@@ -33,12 +32,8 @@ struct StreamOptions {
   // Depth on the wire (client/frame_depth.h): RVL unless told; PNG16 sends the files as
   // stored.
   v1::DepthEncoding depth_encoding = kDefaultDepthEncoding;
+  BagSourceOptions bag;  // topics, frames and pairing of a ROS bag
 };
-
-// Every `every`-th frame of `frames` from the first, at most max_frames (0: all): the
-// frames StreamDataset sends.
-std::vector<dataset::Frame> KeepEvery(std::vector<dataset::Frame> frames, int every,
-                                      int max_frames);
 
 // OK when every frame was acknowledged OK; otherwise the first error (after streaming all).
 absl::Status StreamDataset(MapClient& client, const std::string& dataset_path,

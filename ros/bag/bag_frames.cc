@@ -50,8 +50,8 @@ absl::Status PickOne(const std::vector<const BagTopic*>& candidates, const char*
   std::vector<std::string> names;
   for (const BagTopic* t : candidates) names.push_back(t->name);
   if (names.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat("the bag has no ", what, " topic (", flag,
-                                                   " names one)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("the bag has no ", what, " topic (", flag, " names one)"));
   }
   return absl::InvalidArgumentError(absl::StrCat("the bag has ", names.size(), " ", what,
                                                  " topics (", absl::StrJoin(names, ", "),
@@ -113,7 +113,9 @@ absl::Status ChooseTopics(const std::vector<BagTopic>& topics, const BagFrameOpt
     }
     chosen->depth_topic = options.depth_topic;
   } else {
-    depth = Prefer(depth, [](const BagTopic& t) { return Says(t.name, {"registered", "aligned"}); });
+    depth = Prefer(depth, [](const BagTopic& t) {
+      return Says(t.name, {"registered", "aligned"});
+    });
     if (absl::Status s = PickOne(depth, "depth image", "--depth_topic", &chosen->depth_topic);
         !s.ok()) {
       return s;
@@ -122,27 +124,29 @@ absl::Status ChooseTopics(const std::vector<BagTopic>& topics, const BagFrameOpt
   if (options.color_topic == "-") {
     chosen->color_topic.clear();
   } else if (!options.color_topic.empty()) {
-    if (absl::Status s = CheckGiven(topics, options.color_topic,
-                                    {kImageType, kCompressedImageType}, "--color_topic");
+    if (absl::Status s = CheckGiven(topics, options.color_topic, {kImageType, kCompressedImageType},
+                                    "--color_topic");
         !s.ok()) {
       return s;
     }
     chosen->color_topic = options.color_topic;
   } else if (!color.empty()) {
-    color = Prefer(color, [](const BagTopic& t) { return Says(t.name, {"color", "colour", "rgb"}); });
+    color = Prefer(color, [](const BagTopic& t) {
+      return Says(t.name, {"color", "colour", "rgb"});
+    });
     // A raw image and its image_transport twin "<raw>/compressed": the raw one.
     color = Prefer(color, [&](const BagTopic& t) {
       return Find(topics, t.name + "/compressed") != nullptr || t.type == kImageType;
     });
-    if (absl::Status s = PickOne(color, "colour image", "--color_topic (- for none)",
-                                 &chosen->color_topic);
+    if (absl::Status s =
+            PickOne(color, "colour image", "--color_topic (- for none)", &chosen->color_topic);
         !s.ok()) {
       return s;
     }
   }
   if (!options.camera_info_topic.empty()) {
-    if (absl::Status s = CheckGiven(topics, options.camera_info_topic, {kCameraInfoType},
-                                    "--camera_info_topic");
+    if (absl::Status s =
+            CheckGiven(topics, options.camera_info_topic, {kCameraInfoType}, "--camera_info_topic");
         !s.ok()) {
       return s;
     }
@@ -159,8 +163,8 @@ absl::Status ChooseTopics(const std::vector<BagTopic>& topics, const BagFrameOpt
       chosen->camera_info_topic = t->name;
     } else if (const BagTopic* t = beside(chosen->color_topic)) {
       chosen->camera_info_topic = t->name;
-    } else if (absl::Status s = PickOne(info, "camera_info", "--camera_info_topic",
-                                        &chosen->camera_info_topic);
+    } else if (absl::Status s =
+                   PickOne(info, "camera_info", "--camera_info_topic", &chosen->camera_info_topic);
                !s.ok()) {
       return s;
     }
@@ -175,8 +179,7 @@ absl::StatusOr<std::unique_ptr<BagFrames>> BagFrames::Open(const std::string& pa
   absl::StatusOr<std::unique_ptr<BagReader>> bag = OpenBag(path);
   if (!bag.ok()) return bag.status();
   std::unique_ptr<BagFrames> frames(new BagFrames(*std::move(bag), options));
-  if (absl::Status s = ChooseTopics(frames->bag_->topics(), options, &frames->chosen_);
-      !s.ok()) {
+  if (absl::Status s = ChooseTopics(frames->bag_->topics(), options, &frames->chosen_); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": ", s.message()));
   }
   for (const BagTopic& t : frames->bag_->topics()) {
@@ -205,7 +208,7 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
     if (t != nullptr && t->type == kTfType) first_topics.push_back(tf);
   }
   tf2::BufferCore buffer(ros::Duration(1e6));  // the whole recording
-  std::map<std::string, std::string> parent;  // child frame -> parent frame, as last seen
+  std::map<std::string, std::string> parent;   // child frame -> parent frame, as last seen
   std::vector<std::pair<ros::Time, sensor_msgs::CameraInfoConstPtr>> infos;  // when K changes
   absl::Status s = bag.ForEach(first_topics, [&](const BagMessage& m) {
     if (m.info != nullptr) {

@@ -41,17 +41,13 @@ struct RosFrame {
   int width = 0, height = 0;
 };
 
-// True if `path` names a bag: a file ending in .bag or .mcap, or a folder holding a
-// rosbag2 metadata.yaml.
-bool IsBagPath(const std::string& path);
-
 struct BagFrameOptions {
   std::string depth_topic;        // "" = chosen from the bag's topics (above)
   std::string color_topic;        // "" = chosen; "-" = no colour
   std::string camera_info_topic;  // "" = chosen
   // The frame poses are given in; "" = the root of the camera frame's tf tree.
   std::string fixed_frame;
-  std::string camera_frame;  // "" = the depth image's header.frame_id
+  std::string camera_frame;      // "" = the depth image's header.frame_id
   double sync_tolerance = 0.02;  // seconds between a depth image and its colour image
   int every = 1;                 // keep every n-th frame (after pairing)
   int max_frames = 0;            // 0 = all

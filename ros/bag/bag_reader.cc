@@ -1,7 +1,5 @@
 #include "ros/bag/bag_reader.h"
 
-#include "ros/bag/bag_frames.h"
-
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -10,13 +8,6 @@
 #include "absl/strings/str_cat.h"
 
 namespace skimap::bag {
-
-bool IsBagPath(const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) return fs::exists(fs::path(path) / "metadata.yaml", ec);
-  return absl::EndsWith(path, ".bag") || absl::EndsWith(path, ".mcap");
-}
 
 absl::StatusOr<std::unique_ptr<BagReader>> OpenBag(const std::string& path) {
   namespace fs = std::filesystem;
@@ -29,9 +20,10 @@ absl::StatusOr<std::unique_ptr<BagReader>> OpenBag(const std::string& path) {
     }
     std::sort(files.begin(), files.end());
     if (files.empty()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          path, ": a rosbag2 folder without .mcap files (the sqlite3 storage is not read: "
-                "convert with `ros2 bag convert` to mcap)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(path,
+                       ": a rosbag2 folder without .mcap files (the sqlite3 storage is not read: "
+                       "convert with `ros2 bag convert` to mcap)"));
     }
     return OpenMcapBag(files);
   }

@@ -44,9 +44,8 @@ class McapBag final : public BagReader {
         BagTopic& t = by_name[c.topic];
         const std::string type = Ros1TypeName(c.schema_name);
         if (!t.name.empty() && t.type != type) {
-          return absl::InvalidArgumentError(absl::StrCat(file, ": topic ", c.topic, " is a ",
-                                                         type, " here and a ", t.type,
-                                                         " before"));
+          return absl::InvalidArgumentError(absl::StrCat(file, ": topic ", c.topic, " is a ", type,
+                                                         " here and a ", t.type, " before"));
         }
         t.name = c.topic;
         t.type = type;
@@ -74,9 +73,8 @@ class McapBag final : public BagReader {
                                                        topic->type, ", not a type frames use"));
       }
       if (encodings_[name] != "cdr") {
-        return absl::InvalidArgumentError(absl::StrCat(Name(), ": topic ", name,
-                                                       " has message encoding \"",
-                                                       encodings_[name], "\", not cdr"));
+        return absl::InvalidArgumentError(absl::StrCat(
+            Name(), ": topic ", name, " has message encoding \"", encodings_[name], "\", not cdr"));
       }
     }
     for (size_t i = 0; i < readers_.size(); ++i) {
@@ -96,8 +94,8 @@ class McapBag final : public BagReader {
         } else if (type == kTfType) {
           d = Decode(m, file, &out.tf);
         } else {
-          d = absl::InvalidArgumentError(absl::StrCat(file, ": topic ", m.channel->topic,
-                                                      " changed its type to ", type));
+          d = absl::InvalidArgumentError(
+              absl::StrCat(file, ": topic ", m.channel->topic, " changed its type to ", type));
         }
         if (!d.ok()) return d;
         return fn(out);

@@ -79,16 +79,15 @@ class Ros1Bag final : public BagReader {
           decoded = (out.tf = m.instantiate<tf2_msgs::TFMessage>()) != nullptr;
         }
         if (!decoded) {
-          return absl::InvalidArgumentError(absl::StrCat(
-              path_, ": ", where, ": a ", type, " whose definition (md5sum ",
-              m.getMD5Sum(), ") is not this ROS's"));
+          return absl::InvalidArgumentError(absl::StrCat(path_, ": ", where, ": a ", type,
+                                                         " whose definition (md5sum ",
+                                                         m.getMD5Sum(), ") is not this ROS's"));
         }
         if (absl::Status s = fn(out); !s.ok()) return s;
       }
     } catch (const std::exception& e) {
-      return absl::DataLossError(absl::StrCat(path_, ": ",
-                                              where.empty() ? "reading the index" : where, ": ",
-                                              e.what()));
+      return absl::DataLossError(
+          absl::StrCat(path_, ": ", where.empty() ? "reading the index" : where, ": ", e.what()));
     }
     return absl::OkStatus();
   }

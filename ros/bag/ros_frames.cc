@@ -14,15 +14,13 @@ absl::Status CheckImage(const sensor_msgs::Image& image, const std::string& topi
                         int bytes_per_pixel) {
   if (image.width == 0 || image.height == 0 || image.width > kMaxImageSide ||
       image.height > kMaxImageSide) {
-    return absl::InvalidArgumentError(absl::StrCat(topic, ": size ", image.width, "x",
-                                                   image.height, " is outside 1..",
-                                                   kMaxImageSide));
+    return absl::InvalidArgumentError(absl::StrCat(topic, ": size ", image.width, "x", image.height,
+                                                   " is outside 1..", kMaxImageSide));
   }
   if (static_cast<uint64_t>(image.step) < uint64_t{image.width} * bytes_per_pixel) {
     return absl::InvalidArgumentError(absl::StrCat(topic, ": step ", image.step,
                                                    " is less than width ", image.width, " x ",
-                                                   bytes_per_pixel, " bytes of ",
-                                                   image.encoding));
+                                                   bytes_per_pixel, " bytes of ", image.encoding));
   }
   const uint64_t needed = uint64_t{image.height} * image.step;
   if (image.data.size() < needed) {
@@ -67,15 +65,15 @@ absl::Status ConvertDepth(const sensor_msgs::Image& depth, const std::string& to
         float metres;
         std::memcpy(&metres, &bits, 4);
         const double mm = double(metres) * 1000.0;
-        out->depth_mm[size_t(y) * w + x] =
-            std::isfinite(mm) && mm > 0 && mm < 65535.5 ? static_cast<uint16_t>(std::lround(mm))
-                                                        : 0;
+        out->depth_mm[size_t(y) * w + x] = std::isfinite(mm) && mm > 0 && mm < 65535.5
+                                               ? static_cast<uint16_t>(std::lround(mm))
+                                               : 0;
       }
     }
   } else {
-    return absl::InvalidArgumentError(absl::StrCat(
-        topic, ": depth encoding \"", depth.encoding,
-        "\" is not supported (16UC1 in millimetres or 32FC1 in metres, REP 118)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(topic, ": depth encoding \"", depth.encoding,
+                     "\" is not supported (16UC1 in millimetres or 32FC1 in metres, REP 118)"));
   }
   out->width = w;
   out->height = h;
@@ -133,7 +131,7 @@ absl::Status ConvertCompressedColor(const sensor_msgs::CompressedImage& color,
                                     const std::string& topic, int width, int height,
                                     v1::Frame* frame) {
   const absl::string_view bytes(reinterpret_cast<const char*>(color.data.data()),
-                               color.data.size());
+                                color.data.size());
   perception::ImageFormat format;
   v1::ColorEncoding encoding;
   if (bytes.size() >= 2 && uint8_t(bytes[0]) == 0xFF && uint8_t(bytes[1]) == 0xD8) {
@@ -141,10 +139,11 @@ absl::Status ConvertCompressedColor(const sensor_msgs::CompressedImage& color,
   } else if (bytes.size() >= 8 && bytes.substr(0, 8) == "\x89PNG\r\n\x1a\n") {
     format = perception::ImageFormat::kPng, encoding = v1::COLOR_ENCODING_PNG;
   } else {
-    return absl::InvalidArgumentError(absl::StrCat(
-        topic, ": compressed image (format \"", color.format, "\") is neither JPEG nor PNG"));
+    return absl::InvalidArgumentError(absl::StrCat(topic, ": compressed image (format \"",
+                                                   color.format, "\") is neither JPEG nor PNG"));
   }
-  absl::StatusOr<perception::ImageHeader> header = perception::ReadImageHeader(format, bytes, topic);
+  absl::StatusOr<perception::ImageHeader> header =
+      perception::ReadImageHeader(format, bytes, topic);
   if (!header.ok()) return header.status();
   if (header->width != width || header->height != height) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -166,29 +165,28 @@ absl::StatusOr<RosFrame> MakeRosFrame(const sensor_msgs::Image& depth,
   RosFrame out;
   if (absl::Status s = ConvertDepth(depth, depth_topic, &out); !s.ok()) return s;
   if (info.width != depth.width || info.height != depth.height) {
-    return absl::InvalidArgumentError(absl::StrCat(info_topic, ": camera_info is for ",
-                                                   info.width, "x", info.height, " images, ",
-                                                   depth_topic, " is ", depth.width, "x",
-                                                   depth.height));
+    return absl::InvalidArgumentError(absl::StrCat(info_topic, ": camera_info is for ", info.width,
+                                                   "x", info.height, " images, ", depth_topic,
+                                                   " is ", depth.width, "x", depth.height));
   }
   const double fx = info.K[0], fy = info.K[4], cx = info.K[2], cy = info.K[5];
-  if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy) ||
-      !std::isfinite(cx) || !std::isfinite(cy)) {
-    return absl::InvalidArgumentError(absl::StrCat(info_topic, ": K has focal lengths ", fx,
-                                                   ", ", fy, " (must be > 0)"));
+  if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy) || !std::isfinite(cx) ||
+      !std::isfinite(cy)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(info_topic, ": K has focal lengths ", fx, ", ", fy, " (must be > 0)"));
   }
   v1::Frame& f = out.frame;
   if (color.image != nullptr) {
     if (color.image->width != depth.width || color.image->height != depth.height) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          color.topic, ": colour image is ", color.image->width, "x", color.image->height,
-          ", the depth image ", depth.width, "x", depth.height,
-          " (register depth to colour: a depth_registered topic)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(color.topic, ": colour image is ", color.image->width, "x",
+                       color.image->height, ", the depth image ", depth.width, "x", depth.height,
+                       " (register depth to colour: a depth_registered topic)"));
     }
     if (absl::Status s = ConvertRawColor(*color.image, color.topic, &f); !s.ok()) return s;
   } else if (color.compressed != nullptr) {
-    if (absl::Status s = ConvertCompressedColor(*color.compressed, color.topic, depth.width,
-                                                depth.height, &f);
+    if (absl::Status s =
+            ConvertCompressedColor(*color.compressed, color.topic, depth.width, depth.height, &f);
         !s.ok()) {
       return s;
     }

@@ -45,8 +45,7 @@ inline constexpr uint32_t kMaxImageSide = 8192;
 // image, a compressed colour image that is neither JPEG nor PNG. 32FC1 depth: NaN, inf,
 // <= 0 and beyond 65.535 m become 0.
 absl::StatusOr<RosFrame> MakeRosFrame(const sensor_msgs::Image& depth,
-                                      const std::string& depth_topic,
-                                      const ColorMessage& color,
+                                      const std::string& depth_topic, const ColorMessage& color,
                                       const sensor_msgs::CameraInfo& info,
                                       const std::string& info_topic,
                                       const Eigen::Isometry3d& T_world_camera);

@@ -35,8 +35,8 @@ absl::StatusOr<v1::DepthEncoding> ParseDepthEncoding(const std::string& name) {
   if (name == "rvl") return v1::DEPTH_ENCODING_RVL;
   if (name == "png16") return v1::DEPTH_ENCODING_PNG16;
   if (name == "raw") return v1::DEPTH_ENCODING_RAW_U16;
-  return absl::InvalidArgumentError(absl::StrCat("~depth_encoding: \"", name,
-                                                 "\" is not zstd, rvl, png16 or raw"));
+  return absl::InvalidArgumentError(
+      absl::StrCat("~depth_encoding: \"", name, "\" is not zstd, rvl, png16 or raw"));
 }
 
 double Percentile(std::vector<double> v, double p) {
@@ -94,7 +94,8 @@ absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& pnh) {
   if (p.window < 1) return bad("window", p.window, "must be >= 1");
   if (p.queue_frames < 1) return bad("queue_frames", p.queue_frames, "must be >= 1");
   if (!(p.publish_rate >= 0)) return bad("publish_rate", p.publish_rate, "must be >= 0");
-  if (!(p.inflation_radius >= 0)) return bad("inflation_radius", p.inflation_radius, "must be >= 0");
+  if (!(p.inflation_radius >= 0))
+    return bad("inflation_radius", p.inflation_radius, "must be >= 0");
   if (absl::StatusOr<v1::DepthEncoding> e = ParseDepthEncoding(p.depth_encoding); !e.ok()) {
     return e.status();
   }
@@ -142,10 +143,9 @@ class Bridge::Impl {
       compressed_sub_.subscribe(nh_, "rgb/image/compressed", params_.sync_queue);
       compressed_sync_ = std::make_unique<CompressedSync>(CompressedPolicy(params_.sync_queue),
                                                           depth_sub_, compressed_sub_, info_sub_);
-      compressed_sync_->registerCallback(boost::bind(&Impl::OnCompressed, this,
-                                                     boost::placeholders::_1,
-                                                     boost::placeholders::_2,
-                                                     boost::placeholders::_3));
+      compressed_sync_->registerCallback(
+          boost::bind(&Impl::OnCompressed, this, boost::placeholders::_1, boost::placeholders::_2,
+                      boost::placeholders::_3));
     } else {
       color_sub_.subscribe(nh_, "rgb/image", params_.sync_queue);
       sync_ = std::make_unique<RawSync>(RawPolicy(params_.sync_queue), depth_sub_, color_sub_,
@@ -171,8 +171,8 @@ class Bridge::Impl {
     }
     started_ = Clock::now();
     ROS_INFO("skimap-ros: streaming to %s map %s (%llu frames so far), poses in %s",
-             params_.server.c_str(), params_.map.c_str(),
-             (unsigned long long)map->stats().frames(), params_.fixed_frame.c_str());
+             params_.server.c_str(), params_.map.c_str(), (unsigned long long)map->stats().frames(),
+             params_.fixed_frame.c_str());
     return absl::OkStatus();
   }
 
@@ -186,14 +186,15 @@ class Bridge::Impl {
     const double cpu = usage.ru_utime.tv_sec + usage.ru_utime.tv_usec / 1e6 +
                        usage.ru_stime.tv_sec + usage.ru_stime.tv_usec / 1e6;
     const double wall = std::chrono::duration<double>(Clock::now() - started_).count();
-    ROS_INFO("skimap-ros: %llu frames offered, %llu sent, %llu acknowledged, %llu failed, "
-             "%llu dropped (queue full), %llu without a pose, %llu bad, %llu lost; latency "
-             "p50 %.1f ms p95 %.1f ms; CPU %.1f s in %.1f s",
-             (unsigned long long)s.offered, (unsigned long long)s.sent,
-             (unsigned long long)s.acked_ok, (unsigned long long)s.acked_failed,
-             (unsigned long long)s.dropped, (unsigned long long)no_pose_.load(),
-             (unsigned long long)bad_.load(), (unsigned long long)s.lost,
-             Percentile(s.latencies_ms, 0.5), Percentile(s.latencies_ms, 0.95), cpu, wall);
+    ROS_INFO(
+        "skimap-ros: %llu frames offered, %llu sent, %llu acknowledged, %llu failed, "
+        "%llu dropped (queue full), %llu without a pose, %llu bad, %llu lost; latency "
+        "p50 %.1f ms p95 %.1f ms; CPU %.1f s in %.1f s",
+        (unsigned long long)s.offered, (unsigned long long)s.sent, (unsigned long long)s.acked_ok,
+        (unsigned long long)s.acked_failed, (unsigned long long)s.dropped,
+        (unsigned long long)no_pose_.load(), (unsigned long long)bad_.load(),
+        (unsigned long long)s.lost, Percentile(s.latencies_ms, 0.5),
+        Percentile(s.latencies_ms, 0.95), cpu, wall);
     if (!params_.stats_file.empty()) {
       std::ofstream out(params_.stats_file);
       out << "{\"offered\": " << s.offered << ", \"sent\": " << s.sent
@@ -253,8 +254,8 @@ class Bridge::Impl {
         bag::MakeRosFrame(depth, depth_sub_.getTopic(), color, info, info_sub_.getTopic(), T_wc);
     absl::Status s = frame.status();
     if (s.ok()) {
-      s = client::SetFrameDepth(frame->depth_mm.data(), frame->width, frame->height,
-                                &frame->frame, encoding_);
+      s = client::SetFrameDepth(frame->depth_mm.data(), frame->width, frame->height, &frame->frame,
+                                encoding_);
     }
     if (!s.ok()) {
       ++bad_;
@@ -293,7 +294,8 @@ class Bridge::Impl {
     sender_->SetPoses(poses);
     ++pose_updates_done_;
     ROS_INFO("skimap-ros: %llu frames re-posed (%llu voxels touched)",
-             (unsigned long long)done->frames_updated(), (unsigned long long)done->voxels_touched());
+             (unsigned long long)done->frames_updated(),
+             (unsigned long long)done->voxels_touched());
   }
 
   // Publishes what changed since the last time.
@@ -307,8 +309,8 @@ class Bridge::Impl {
     uint64_t version = 0;
     std::vector<SentFrame> trajectory = sender_->Trajectory(&version);
     const ros::Time now = ros::Time::now();
-    const auto key = std::make_tuple(map->stats().frames(), map->stats().voxels(),
-                                     pose_updates_done_.load());
+    const auto key =
+        std::make_tuple(map->stats().frames(), map->stats().voxels(), pose_updates_done_.load());
     if (key != last_key_) {
       v1::GetOccupancyGridRequest grid_request;
       grid_request.set_map(map_name_);
@@ -461,8 +463,8 @@ class Bridge::Impl {
   Clock::time_point started_;
   std::mutex publish_mu_;
   std::tuple<uint64_t, uint64_t, uint64_t> last_key_{~0ull, ~0ull, ~0ull};  // publish_mu_
-  std::vector<geometry_msgs::TransformStamped> instance_tfs_;              // publish_mu_
-  uint64_t path_version_ = ~0ull;                                          // publish_mu_
+  std::vector<geometry_msgs::TransformStamped> instance_tfs_;               // publish_mu_
+  uint64_t path_version_ = ~0ull;                                           // publish_mu_
 };
 
 absl::StatusOr<std::unique_ptr<Bridge>> Bridge::Start(ros::NodeHandle nh,

@@ -52,9 +52,9 @@ struct SentFrame {
 class FrameSender {
  public:
   struct Options {
-    std::string map_name;   // "maps/{id}"; created by the caller
-    int window = 8;         // unacknowledged frames in flight
-    int queue_frames = 2;   // frames waiting for the stream
+    std::string map_name;         // "maps/{id}"; created by the caller
+    int window = 8;               // unacknowledged frames in flight
+    int queue_frames = 2;         // frames waiting for the stream
     uint64_t first_sequence = 0;  // the map's frame count when the bridge started
   };
   FrameSender(client::MapClient* client, const Options& options);  // client not owned
@@ -89,14 +89,14 @@ class FrameSender {
   const Options options_;
   mutable std::mutex mu_;
   std::condition_variable cv_;
-  std::deque<Queued> queue_;             // guarded by mu_
-  bool stop_ = false;                    // guarded by mu_
-  uint64_t next_sequence_;               // guarded by mu_
-  std::map<uint64_t, Queued> in_flight_; // by sequence; guarded by mu_ (frame cleared)
-  SenderStats stats_;                    // guarded by mu_
-  std::map<uint64_t, SentFrame> acked_;  // by sequence; guarded by mu_
-  std::map<int64_t, uint64_t> by_stamp_; // stamp -> sequence; guarded by mu_
-  uint64_t version_ = 0;                 // guarded by mu_
+  std::deque<Queued> queue_;              // guarded by mu_
+  bool stop_ = false;                     // guarded by mu_
+  uint64_t next_sequence_;                // guarded by mu_
+  std::map<uint64_t, Queued> in_flight_;  // by sequence; guarded by mu_ (frame cleared)
+  SenderStats stats_;                     // guarded by mu_
+  std::map<uint64_t, SentFrame> acked_;   // by sequence; guarded by mu_
+  std::map<int64_t, uint64_t> by_stamp_;  // stamp -> sequence; guarded by mu_
+  uint64_t version_ = 0;                  // guarded by mu_
   std::thread thread_;
 };
 

@@ -32,8 +32,8 @@ v1::Pose FromRosPose(const geometry_msgs::Pose& pose) {
 
 namespace {
 
-void SetInfo(double resolution, uint32_t width, uint32_t height, double origin_x,
-             double origin_y, const ros::Time& stamp, nav_msgs::MapMetaData* info) {
+void SetInfo(double resolution, uint32_t width, uint32_t height, double origin_x, double origin_y,
+             const ros::Time& stamp, nav_msgs::MapMetaData* info) {
   info->map_load_time = stamp;
   info->resolution = static_cast<float>(resolution);
   info->width = width;
@@ -50,8 +50,8 @@ nav_msgs::OccupancyGrid ToRosGrid(const v1::OccupancyGrid& grid, const std::stri
   nav_msgs::OccupancyGrid out;
   out.header.frame_id = frame_id;
   out.header.stamp = stamp;
-  SetInfo(grid.resolution(), grid.width(), grid.height(), grid.origin_x(), grid.origin_y(),
-          stamp, &out.info);
+  SetInfo(grid.resolution(), grid.width(), grid.height(), grid.origin_x(), grid.origin_y(), stamp,
+          &out.info);
   out.data.resize(grid.data().size());
   std::memcpy(out.data.data(), grid.data().data(), grid.data().size());
   return out;
@@ -107,9 +107,9 @@ visualization_msgs::MarkerArray ToMarkers(const std::vector<v1::Instance>& insta
     text.scale.x = text.scale.y = 0;
     text.scale.z = 0.06;
     text.color.r = text.color.g = text.color.b = 1.0f;
-    text.text = absl::StrCat(instance.object_name().empty() ? instance.object()
-                                                            : instance.object_name(),
-                             " #", instance.id());
+    text.text =
+        absl::StrCat(instance.object_name().empty() ? instance.object() : instance.object_name(),
+                     " #", instance.id());
     out.markers.push_back(text);
   }
   return out;

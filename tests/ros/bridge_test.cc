@@ -7,10 +7,10 @@
 // sent.
 #include <gtest/gtest.h>
 #include <nav_msgs/MapMetaData.h>
-#include <sensor_msgs/CompressedImage.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <tf2_msgs/TFMessage.h>
@@ -54,8 +54,8 @@ class RosEnvironment : public ::testing::Environment {
     uri_ = absl::StrCat("http://127.0.0.1:", port);
     setenv("ROS_MASTER_URI", uri_.c_str(), 1);
     setenv("ROS_IP", "127.0.0.1", 1);
-    master_ = SpawnProcess({"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p",
-                            std::to_string(port)});
+    master_ = SpawnProcess(
+        {"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p", std::to_string(port)});
     ASSERT_GT(master_, 0);
     int argc = 0;
     ros::init(argc, nullptr, "skimap_ros_test", ros::init_options::NoSigintHandler);
@@ -142,10 +142,13 @@ class BridgeTest : public ::testing::Test {
     ros::Publisher info = nh.advertise<sensor_msgs::CameraInfo>("/cam/info", 10);
     ros::Publisher tf = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
     ros::Publisher tf_static = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
-    ASSERT_TRUE(WaitFor([&] {
-      return depth.getNumSubscribers() > 0 && rgb.getNumSubscribers() > 0 &&
-             info.getNumSubscribers() > 0 && tf.getNumSubscribers() > 0;
-    }, 30)) << BridgeLog();
+    ASSERT_TRUE(WaitFor(
+        [&] {
+          return depth.getNumSubscribers() > 0 && rgb.getNumSubscribers() > 0 &&
+                 info.getNumSubscribers() > 0 && tf.getNumSubscribers() > 0;
+        },
+        30))
+        << BridgeLog();
     tf_static.publish(LinkToOptical());
     ros::WallDuration(0.5).sleep();
     for (const MmFrame& f : frames_) {
@@ -209,8 +212,8 @@ TEST_F(BridgeTest, LiveTopicsMakeTheMapAndMapIsSkimapdsGridCellForCell) {
         last_map = *m;
         ++maps;
       });
-  ros::Subscriber path_sub = nh.subscribe<nav_msgs::Path>(
-      ns_ + "/trajectory", 5, [&](const nav_msgs::Path::ConstPtr& p) {
+  ros::Subscriber path_sub =
+      nh.subscribe<nav_msgs::Path>(ns_ + "/trajectory", 5, [&](const nav_msgs::Path::ConstPtr& p) {
         std::lock_guard<std::mutex> lock(mu);
         last_path = *p;
       });
@@ -270,9 +273,9 @@ TEST_F(BridgeTest, LiveTopicsMakeTheMapAndMapIsSkimapdsGridCellForCell) {
     EXPECT_EQ(last_height.width, heights->width());
     EXPECT_EQ(last_height.height, heights->height());
     ASSERT_EQ(last_height.data.size(), size_t(heights->heights_size()) * 4);
-    EXPECT_EQ(std::memcmp(last_height.data.data(), heights->heights().data(),
-                          last_height.data.size()),
-              0);
+    EXPECT_EQ(
+        std::memcmp(last_height.data.data(), heights->heights().data(), last_height.data.size()),
+        0);
     EXPECT_EQ(last_height_info.width, heights->width());
     EXPECT_DOUBLE_EQ(last_height_info.origin.position.x, heights->origin_x());
     ASSERT_EQ(last_path.poses.size(), 10u);
@@ -312,18 +315,20 @@ TEST_F(BridgeTest, LiveTopicsMakeTheMapAndMapIsSkimapdsGridCellForCell) {
   updates.publish(closure);
   ASSERT_TRUE(client_->UpdatePoses(update).ok());
   const VoxelSet expected = Voxels(*client_, "maps/live_ref");
-  ASSERT_TRUE(WaitFor([&] { return Voxels(*client_, "maps/live") != before; }, 20))
-      << BridgeLog();
+  ASSERT_TRUE(WaitFor([&] { return Voxels(*client_, "maps/live") != before; }, 20)) << BridgeLog();
   EXPECT_EQ(Compare(Voxels(*client_, "maps/live"), expected), "same");
-  ASSERT_TRUE(WaitFor([&] {
-    std::lock_guard<std::mutex> lock(mu);
-    return last_path.poses.size() == 10 &&
-           std::abs(last_path.poses[7].pose.position.x -
-                    (frames_[7].T_wc.translation().x() + 0.03)) < 1e-9;
-  }, 10));
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mu);
+        return last_path.poses.size() == 10 &&
+               std::abs(last_path.poses[7].pose.position.x -
+                        (frames_[7].T_wc.translation().x() + 0.03)) < 1e-9;
+      },
+      10));
 
   // Services: instances in a box (a map without recognition says so), save.
-  ros::ServiceClient box = nh.serviceClient<skimap_ros::InstancesInBox>(ns_ + "/skimap_ros/instances_in_box");
+  ros::ServiceClient box =
+      nh.serviceClient<skimap_ros::InstancesInBox>(ns_ + "/skimap_ros/instances_in_box");
   skimap_ros::InstancesInBox in_box;
   in_box.request.min.x = in_box.request.min.y = in_box.request.min.z = -10;
   in_box.request.max.x = in_box.request.max.y = in_box.request.max.z = 10;

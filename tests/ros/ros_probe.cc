@@ -31,8 +31,8 @@ int main(int argc, char** argv) {
         markers = *msg;
         got_markers = true;
       });
-  ros::Subscriber tf = nh.subscribe<tf2_msgs::TFMessage>(
-      "/tf", 10, [&](const tf2_msgs::TFMessage::ConstPtr& msg) {
+  ros::Subscriber tf =
+      nh.subscribe<tf2_msgs::TFMessage>("/tf", 10, [&](const tf2_msgs::TFMessage::ConstPtr& msg) {
         std::lock_guard<std::mutex> lock(mu);
         for (const auto& t : msg->transforms) {
           if (t.child_frame_id.rfind("object_", 0) == 0) frames.insert(t.child_frame_id);
@@ -71,8 +71,8 @@ int main(int argc, char** argv) {
     for (const auto& i : call.response.instances) {
       ids += (ids.empty() ? "" : ",") + std::to_string(i.id);
     }
-    std::printf("sphere %d %zu %s\n", call.response.success ? 1 : 0,
-                call.response.instances.size(), ids.c_str());
+    std::printf("sphere %d %zu %s\n", call.response.success ? 1 : 0, call.response.instances.size(),
+                ids.c_str());
   } else {
     std::printf("sphere call failed\n");
   }

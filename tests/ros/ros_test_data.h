@@ -66,8 +66,8 @@ inline std::vector<MmFrame> LoadMmFrames(const std::string& dir) {
     m.depth_mm.resize(size_t(m.width) * m.height);
     for (int y = 0; y < m.height; ++y) {
       for (int x = 0; x < m.width; ++x) {
-        m.depth_mm[size_t(y) * m.width + x] = static_cast<uint16_t>(
-            std::lround(depth.at<uint16_t>(y, x) * f.depth_scale));
+        m.depth_mm[size_t(y) * m.width + x] =
+            static_cast<uint16_t>(std::lround(depth.at<uint16_t>(y, x) * f.depth_scale));
       }
     }
     cv::Mat rgb;
@@ -147,8 +147,7 @@ inline sensor_msgs::CameraInfo InfoMessage(const MmFrame& f) {
 
 inline geometry_msgs::TransformStamped Transform(const Eigen::Isometry3d& T,
                                                  const std::string& parent,
-                                                 const std::string& child,
-                                                 const ros::Time& stamp) {
+                                                 const std::string& child, const ros::Time& stamp) {
   geometry_msgs::TransformStamped t;
   t.header.stamp = stamp;
   t.header.frame_id = parent;
@@ -173,8 +172,8 @@ inline tf2_msgs::TFMessage WorldToLink(const MmFrame& f) {
 // camera_link <- optical (/tf_static).
 inline tf2_msgs::TFMessage LinkToOptical() {
   tf2_msgs::TFMessage m;
-  m.transforms.push_back(Transform(LinkFromOptical(), "camera_link", kOpticalFrame,
-                                   ros::Time(1000.0)));
+  m.transforms.push_back(
+      Transform(LinkFromOptical(), "camera_link", kOpticalFrame, ros::Time(1000.0)));
   return m;
 }
 

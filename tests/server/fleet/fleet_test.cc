@@ -205,6 +205,25 @@ TEST_F(FleetTest, KillingAnOwnerMidStreamLosesNoAcknowledgedFrame) {
   EXPECT_EQ(owned, 2 * kMaps) << out;  // the maps and their rebuilds
 }
 
+// `skimap stream` through a node that does not own the map: the first ack redirects, the
+// CLI re-sends every frame not yet acknowledged to the owner, and a second stream
+// continues the sequence there.
+TEST_F(FleetTest, CliStreamThroughANonOwnerReachesTheOwnerWithEveryFrame) {
+  ASSERT_NO_FATAL_FAILURE(StartNodes(2));
+  auto to_owner =
+      client::MapClient::Connect(addresses_[0], {.timeout = absl::Seconds(20), .max_redirects = 0});
+  ASSERT_TRUE(to_owner->CreateMap(CreateRequest("cli")).ok());
+  for (int run = 1; run <= 2; ++run) {
+    const std::string out = RunCli(absl::StrCat("--server=", addresses_[1], " stream ",
+                                                SKIMAP_YCBV_DIR, " --map=cli --window=4"));
+    EXPECT_NE(out.find("streamed 10 frames to maps/cli"), std::string::npos) << out;
+    EXPECT_NE(out.find("10 ok, 0 failed"), std::string::npos) << out;
+    absl::StatusOr<v1::Map> map = to_owner->GetMap("maps/cli");
+    ASSERT_TRUE(map.ok()) << map.status();
+    EXPECT_EQ(map->stats().frames(), 10u * run);
+  }
+}
+
 TEST_F(FleetTest, APausedOwnerWhoseLeaseExpiredCannotCommitAfterResuming) {
   ASSERT_NO_FATAL_FAILURE(StartNodes(2));
   SkimapdProcess& a = *nodes_[0];

@@ -39,21 +39,19 @@ TEST(RosMarkersTest, EveryInstanceIsAMarkerATfFrameAndInTheSphereService) {
   const std::string master_uri = absl::StrCat("http://127.0.0.1:", port);
   setenv("ROS_MASTER_URI", master_uri.c_str(), 1);
   setenv("ROS_IP", "127.0.0.1", 1);
-  const pid_t master =
-      SpawnProcess({"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p", std::to_string(port)});
+  const pid_t master = SpawnProcess(
+      {"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p", std::to_string(port)});
   ASSERT_GT(master, 0);
   const std::string log = absl::StrCat(w.data_dir, "/bridge.log");
   SpawnOptions options;
   options.stdout_path = options.stderr_path = log;
-  const pid_t bridge = SpawnProcess(
-      {SKIMAP_ROS_PATH, "__ns:=/robot", "__name:=skimap_ros",
-       absl::StrCat("_server:=127.0.0.1:", w.server->grpc_port()), "_map:=scene",
-       "_fixed_frame:=world", "_publish_rate:=5.0"},
-      options);
+  const pid_t bridge = SpawnProcess({SKIMAP_ROS_PATH, "__ns:=/robot", "__name:=skimap_ros",
+                                     absl::StrCat("_server:=127.0.0.1:", w.server->grpc_port()),
+                                     "_map:=scene", "_fixed_frame:=world", "_publish_rate:=5.0"},
+                                    options);
   ASSERT_GT(bridge, 0);
-  const std::string out =
-      Capture(absl::StrCat(SKIMAP_ROS_PROBE_PATH, " /robot/instances ",
-                           "/robot/skimap_ros/instances_in_sphere 60"));
+  const std::string out = Capture(absl::StrCat(SKIMAP_ROS_PROBE_PATH, " /robot/instances ",
+                                               "/robot/skimap_ros/instances_in_sphere 60"));
   kill(bridge, SIGINT);
   int status = -1;
   waitpid(bridge, &status, 0);

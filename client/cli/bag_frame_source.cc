@@ -1,0 +1,124 @@
+#include "client/cli/bag_frame_source.h"
+
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "client/frame_depth.h"
+
+namespace skimap::client {
+namespace {
+
+// Frames read ahead of the stream: a few, so a bag's memory stays bounded.
+constexpr size_t kReadAhead = 8;
+
+class BagFrameSource final : public FrameSource {
+ public:
+  BagFrameSource(std::unique_ptr<bag::BagFrames> bag, const bag::BagFrameOptions& options,
+                 v1::DepthEncoding encoding)
+      : bag_(std::move(bag)), options_(options), encoding_(encoding), stats_(bag_->chosen()) {
+    if (const uint64_t n = bag_->depth_images(); n > 0) {
+      total_ = (n + std::max(1, options.every) - 1) / std::max(1, options.every);
+      if (options.max_frames > 0) total_ = std::min<size_t>(total_, options.max_frames);
+    }
+    reader_ = std::thread([this] { Read(); });
+  }
+
+  ~BagFrameSource() override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    reader_.join();
+    PrintNotes();
+  }
+
+  size_t total() const override { return total_; }
+
+  absl::StatusOr<std::optional<FrameOrError>> Next() override {
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait(lock, [&] { return !queue_.empty() || done_; });
+    if (queue_.empty()) {
+      if (!end_.ok()) return end_;
+      return std::optional<FrameOrError>();
+    }
+    FrameOrError frame = std::move(queue_.front());
+    queue_.pop_front();
+    cv_.notify_all();
+    return std::optional<FrameOrError>(std::move(frame));
+  }
+
+ private:
+  void Read() {
+    absl::Status s = bag_->Read(
+        [&](absl::StatusOr<bag::RosFrame> made) -> absl::Status {
+          absl::Status error = made.status();
+          if (made.ok()) {
+            error = SetFrameDepth(made->depth_mm.data(), made->width, made->height, &made->frame,
+                                  encoding_);
+          }
+          FrameOrError frame =
+              error.ok() ? FrameOrError(std::move(made->frame)) : FrameOrError(error);
+          std::unique_lock<std::mutex> lock(mu_);
+          cv_.wait(lock, [&] { return queue_.size() < kReadAhead || stop_; });
+          if (stop_) return absl::CancelledError("stream stopped");
+          queue_.push_back(std::move(frame));
+          cv_.notify_all();
+          return absl::OkStatus();
+        },
+        &stats_);
+    std::lock_guard<std::mutex> lock(mu_);
+    if (!stop_) end_ = s;
+    done_ = true;
+    cv_.notify_all();
+  }
+
+  // What the read skipped, on stderr after the stream's summary.
+  void PrintNotes() const {
+    std::fprintf(stderr,
+                 "bag: depth %s, colour %s, camera_info %s, poses in %s: %llu depth "
+                 "images, %llu frames",
+                 stats_.depth_topic.c_str(),
+                 stats_.color_topic.empty() ? "(none)" : stats_.color_topic.c_str(),
+                 stats_.camera_info_topic.c_str(), stats_.fixed_frame.c_str(),
+                 (unsigned long long)stats_.depth_images, (unsigned long long)stats_.frames);
+    if (stats_.without_color > 0) {
+      std::fprintf(stderr, ", %llu skipped without a colour image within %.3f s",
+                   (unsigned long long)stats_.without_color, options_.sync_tolerance);
+    }
+    if (stats_.without_pose > 0) {
+      std::fprintf(stderr, ", %llu skipped without a pose (first: %s)",
+                   (unsigned long long)stats_.without_pose, stats_.first_pose_error.c_str());
+    }
+    std::fprintf(stderr, "\n");
+  }
+
+  const std::unique_ptr<bag::BagFrames> bag_;
+  const bag::BagFrameOptions options_;
+  const v1::DepthEncoding encoding_;
+  bag::BagFrameStats stats_;  // written by the reader thread until it ends
+  size_t total_ = 0;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<FrameOrError> queue_;  // guarded by mu_
+  bool stop_ = false;               // guarded by mu_
+  bool done_ = false;               // guarded by mu_
+  absl::Status end_;                // guarded by mu_
+  std::thread reader_;
+};
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<FrameSource>> OpenBagFrameSource(const std::string& path,
+                                                                const bag::BagFrameOptions& options,
+                                                                v1::DepthEncoding depth_encoding) {
+  absl::StatusOr<std::unique_ptr<bag::BagFrames>> bag = bag::BagFrames::Open(path, options);
+  if (!bag.ok()) return bag.status();
+  return std::make_unique<BagFrameSource>(*std::move(bag), options, depth_encoding);
+}
+
+}  // namespace skimap::client
