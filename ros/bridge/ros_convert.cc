@@ -52,8 +52,7 @@ nav_msgs::OccupancyGrid ToRosGrid(const v1::OccupancyGrid& grid, const std::stri
   out.header.stamp = stamp;
   SetInfo(grid.resolution(), grid.width(), grid.height(), grid.origin_x(), grid.origin_y(), stamp,
           &out.info);
-  out.data.resize(grid.data().size());
-  std::memcpy(out.data.data(), grid.data().data(), grid.data().size());
+  out.data.assign(grid.data().begin(), grid.data().end());  // an empty map: no cells
   return out;
 }
 
@@ -67,8 +66,8 @@ RosHeightMap ToRosHeightMap(const v1::HeightMap& map, const std::string& frame_i
   out.image.encoding = "32FC1";
   out.image.is_bigendian = 0;
   out.image.step = map.width() * 4;
-  out.image.data.resize(size_t(map.heights_size()) * 4);
-  std::memcpy(out.image.data.data(), map.heights().data(), out.image.data.size());
+  const auto* bytes = reinterpret_cast<const uint8_t*>(map.heights().data());
+  out.image.data.assign(bytes, bytes + size_t(map.heights_size()) * 4);
   SetInfo(map.resolution(), map.width(), map.height(), map.origin_x(), map.origin_y(), stamp,
           &out.info);
   return out;
