@@ -7,10 +7,12 @@
 // ambiguous topic choice: refused by name, the map holds only what was acknowledged.
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
+#include <sys/wait.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -167,6 +169,36 @@ TEST_F(BagStreamTest, ATruncatedBagStopsWithTheFramesBeforeTheDamage) {
   EXPECT_NE(mcap_run.status, 0) << mcap_run.output;
   EXPECT_NE(mcap_run.output.find("cut.mcap"), std::string::npos) << mcap_run.output;
   EXPECT_LT(Frames("mcap_cut"), 10u);
+}
+
+// Bytes overwritten in the bag's header, its index (the end) or anywhere: the CLI refuses
+// the bag or streams what it can read, never crashes, and skimapd stays up.
+TEST_F(BagStreamTest, CorruptRos1BagsNeverCrashTheCli) {
+  const std::string whole = WriteRos1Bag("whole.bag");
+  std::ifstream in(whole, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::mt19937 random(7);
+  int refused = 0;
+  for (int seed = 0; seed < 12; ++seed) {
+    std::string bad = bytes;
+    for (int i = 0; i < 8; ++i) {
+      const size_t n = bad.size();
+      const int region = random() % 3;
+      const size_t pos = region == 0   ? random() % std::min<size_t>(n, 8192)
+                         : region == 1 ? n - 1 - random() % std::min<size_t>(n, 65536)
+                                       : random() % n;
+      bad[pos] = static_cast<char>(random());
+    }
+    const std::string path = (dir_ / absl::StrCat("bad", seed, ".bag")).string();
+    std::ofstream(path, std::ios::binary) << bad;
+    const CommandRun run = Stream(path, absl::StrCat("bad", seed));
+    SCOPED_TRACE(run.output);
+    ASSERT_FALSE(WIFSIGNALED(run.status)) << "seed " << seed;
+    refused += run.status != 0;
+    EXPECT_LE(Frames(absl::StrCat("bad", seed)), 10u);
+  }
+  std::printf("%d of 12 corrupt bags refused\n", refused);
+  EXPECT_TRUE(server_.Running());
 }
 
 TEST_F(BagStreamTest, AnImageNotMatchingItsDataIsRefusedByTopicAndTheRestStreams) {
