@@ -2,9 +2,10 @@
 // the map back (bridge.h; docs/ros.md). Exits 1 with the reason when it cannot start (a bad
 // parameter, skimapd unreachable).
 //
-//   rosrun-free: skimap-ros _server:=127.0.0.1:50051 _map:=lab _fixed_frame:=map \
-//       depth/image:=/camera/aligned_depth_to_color/image_raw \
+//   skimap-ros _server:=127.0.0.1:50051 _map:=lab _fixed_frame:=map
+//       depth/image:=/camera/aligned_depth_to_color/image_raw
 //       rgb/image:=/camera/color/image_raw rgb/camera_info:=/camera/color/camera_info
+//   (one command line), or roslaunch skimap_ros skimap_ros.launch (launch/).
 #include <ros/ros.h>
 
 #include <atomic>
