@@ -14,10 +14,10 @@
 // frame counts are checked against the acknowledgements.
 //
 // Usage: ros_bridge_bench [--frames=300] [--rate=30]   (runs at rate, 2x and 3x)
+#include <fcntl.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
 #include <rosbag/bag.h>
-#include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/resource.h>
