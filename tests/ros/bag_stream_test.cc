@@ -19,6 +19,7 @@
 #include "client/map_client.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/common/voxel_set.h"
+#include "tests/ros/reference_voxels.h"
 #include "tests/ros/ros_test_data.h"
 
 namespace skimap::testing {
@@ -54,18 +55,7 @@ class BagStreamTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  // The reference: the frames as API frames, into map `id` at 2 cm.
-  VoxelSet Reference(const std::string& id) {
-    v1::CreateMapRequest create;
-    create.set_map_id(id);
-    create.mutable_options()->set_resolution(0.02);
-    EXPECT_TRUE(client_->CreateMap(create).ok());
-    for (const MmFrame& f : frames_) {
-      auto ack = client_->IntegrateFrame(ReferenceFrame(f, "maps/" + id, f.index));
-      EXPECT_TRUE(ack.ok()) << ack.status();
-    }
-    return Voxels(*client_, "maps/" + id);
-  }
+  VoxelSet Reference(const std::string& id) { return ReferenceVoxels(*client_, frames_, id); }
 
   CommandRun Stream(const std::string& bag, const std::string& map, const std::string& flags = "") {
     return RunCommand(absl::StrCat(SKIMAP_CLI_PATH, " --server=", server_.address(), " stream ",

@@ -30,6 +30,7 @@
 #include "tests/common/skimapd_process.h"
 #include "tests/common/spawn.h"
 #include "tests/common/voxel_set.h"
+#include "tests/ros/reference_voxels.h"
 #include "tests/ros/ros_test_data.h"
 
 namespace skimap::testing {
@@ -182,17 +183,7 @@ class BridgeTest : public ::testing::Test {
     return m.ok() ? m->stats().frames() : 0;
   }
 
-  VoxelSet Reference(const std::string& id) {
-    v1::CreateMapRequest create;
-    create.set_map_id(id);
-    create.mutable_options()->set_resolution(0.02);
-    EXPECT_TRUE(client_->CreateMap(create).ok());
-    for (const MmFrame& f : frames_) {
-      auto ack = client_->IntegrateFrame(ReferenceFrame(f, "maps/" + id, f.index));
-      EXPECT_TRUE(ack.ok()) << ack.status();
-    }
-    return Voxels(*client_, "maps/" + id);
-  }
+  VoxelSet Reference(const std::string& id) { return ReferenceVoxels(*client_, frames_, id); }
 
   static inline int runs_ = 0;
   std::vector<MmFrame> frames_;
