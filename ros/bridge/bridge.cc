@@ -74,6 +74,7 @@ absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& pnh) {
   pnh.param("camera_frame", p.camera_frame, p.camera_frame);
   pnh.param("tf_wait", p.tf_wait, p.tf_wait);
   pnh.param("compressed_color", p.compressed_color, p.compressed_color);
+  pnh.param("use_color", p.use_color, p.use_color);
   pnh.param("sync_queue", p.sync_queue, p.sync_queue);
   pnh.param("depth_encoding", p.depth_encoding, p.depth_encoding);
   pnh.param("window", p.window, p.window);
@@ -138,8 +139,14 @@ class Bridge::Impl {
     tf_ = std::make_unique<tf2_ros::Buffer>();
     listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_, nh_);
     depth_sub_.subscribe(nh_, "depth/image", params_.sync_queue);
-    info_sub_.subscribe(nh_, "rgb/camera_info", params_.sync_queue);
-    if (params_.compressed_color) {
+    info_sub_.subscribe(nh_, params_.use_color ? "rgb/camera_info" : "depth/camera_info",
+                        params_.sync_queue);
+    if (!params_.use_color) {
+      depth_only_sync_ = std::make_unique<DepthOnlySync>(DepthOnlyPolicy(params_.sync_queue),
+                                                         depth_sub_, info_sub_);
+      depth_only_sync_->registerCallback(
+          boost::bind(&Impl::OnDepthOnly, this, boost::placeholders::_1, boost::placeholders::_2));
+    } else if (params_.compressed_color) {
       compressed_sub_.subscribe(nh_, "rgb/image/compressed", params_.sync_queue);
       compressed_sync_ = std::make_unique<CompressedSync>(CompressedPolicy(params_.sync_queue),
                                                           depth_sub_, compressed_sub_, info_sub_);
@@ -214,6 +221,12 @@ class Bridge::Impl {
   using CompressedPolicy =
       message_filters::sync_policies::ApproximateTime<Image, CompressedImage, CameraInfo>;
   using CompressedSync = message_filters::Synchronizer<CompressedPolicy>;
+  using DepthOnlyPolicy = message_filters::sync_policies::ApproximateTime<Image, CameraInfo>;
+  using DepthOnlySync = message_filters::Synchronizer<DepthOnlyPolicy>;
+
+  void OnDepthOnly(const Image::ConstPtr& depth, const CameraInfo::ConstPtr& info) {
+    OnFrame(*depth, bag::ColorMessage(), *info);  // voxels get grey
+  }
 
   void OnRaw(const Image::ConstPtr& depth, const Image::ConstPtr& image,
              const CameraInfo::ConstPtr& info) {
@@ -455,6 +468,7 @@ class Bridge::Impl {
   message_filters::Subscriber<CameraInfo> info_sub_;
   std::unique_ptr<RawSync> sync_;
   std::unique_ptr<CompressedSync> compressed_sync_;
+  std::unique_ptr<DepthOnlySync> depth_only_sync_;
   ros::Subscriber pose_updates_;
   ros::Publisher map_pub_, height_pub_, height_info_pub_, markers_pub_, path_pub_;
   ros::ServiceServer box_srv_, sphere_srv_, save_srv_;

@@ -4,7 +4,8 @@
 //   depth/image        sensor_msgs/Image, 16UC1 (mm) or 32FC1 (m), registered to colour
 //   rgb/image          sensor_msgs/Image rgb8 / bgr8 / rgba8 / bgra8 / mono8, or with
 //                      ~compressed_color rgb/image/compressed, a sensor_msgs/CompressedImage
-//   rgb/camera_info    sensor_msgs/CameraInfo
+//   rgb/camera_info    sensor_msgs/CameraInfo (with ~use_color false: depth/camera_info,
+//                      and no colour topic: a depth-only camera, voxels grey)
 //   pose_updates       nav_msgs/Path: corrected camera poses (fixed frame) after a loop
 //                      closure, each stamped as the frame it corrects; forwarded to
 //                      UpdatePoses (stamps of frames the map does not hold are counted)
@@ -49,6 +50,7 @@ struct BridgeParams {
   std::string camera_frame;                           // "" = the depth image's header.frame_id
   double tf_wait = 0.1;                               // seconds to wait for a frame's transform
   bool compressed_color = false;
+  bool use_color = true;                // false: depth/image + depth/camera_info only
   int sync_queue = 10;                  // message_filters queue per topic
   std::string depth_encoding = "zstd";  // zstd | rvl | png16 | raw
   int window = 8;                       // frames in flight to skimapd

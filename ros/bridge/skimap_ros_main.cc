@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <cstdio>
 #include <string>
 #include <thread>
 
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
   // SIGINT / SIGTERM: the frames in flight are acknowledged and the last map published
   // before the node leaves the graph.
   ros::init(argc, argv, "skimap_ros", ros::init_options::NoSigintHandler);
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // log lines reach a redirected log as they come
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   ros::NodeHandle nh;

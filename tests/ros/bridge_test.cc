@@ -110,7 +110,8 @@ class BridgeTest : public ::testing::Test {
         "depth/image:=/cam/depth",
         "rgb/image:=/cam/rgb",
         "rgb/image/compressed:=/cam/rgb/compressed",
-        "rgb/camera_info:=/cam/info"};
+        "rgb/camera_info:=/cam/info",
+        "depth/camera_info:=/cam/info"};
     args.insert(args.end(), extra.begin(), extra.end());
     SpawnOptions options;
     options.stdout_path = options.stderr_path = (dir_ / "bridge.log").string();
@@ -147,8 +148,9 @@ class BridgeTest : public ::testing::Test {
     ros::Publisher tf_static = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
     ASSERT_TRUE(WaitFor(
         [&] {
-          return depth.getNumSubscribers() > 0 && rgb.getNumSubscribers() > 0 &&
-                 info.getNumSubscribers() > 0 && tf.getNumSubscribers() > 0;
+          return depth.getNumSubscribers() > 0 &&
+                 (!publish_color_ || rgb.getNumSubscribers() > 0) && info.getNumSubscribers() > 0 &&
+                 tf.getNumSubscribers() > 0;
         },
         30))
         << BridgeLog();
@@ -161,7 +163,8 @@ class BridgeTest : public ::testing::Test {
       }
       ros::WallDuration(0.02).sleep();
       depth.publish(DepthMessage(f));
-      if (compressed) {
+      if (!publish_color_) {
+      } else if (compressed) {
         sensor_msgs::CompressedImage png;
         png.header = DepthMessage(f).header;
         png.format = "rgb8; png compressed bgr8";
@@ -193,6 +196,7 @@ class BridgeTest : public ::testing::Test {
   std::unique_ptr<client::MapClient> client_;
   pid_t bridge_ = -1;
   std::string server_override_;  // the bridge's ~server when not server_
+  bool publish_color_ = true;    // false: depth and camera_info only
 };
 
 TEST_F(BridgeTest, LiveTopicsMakeTheMapAndMapIsSkimapdsGridCellForCell) {
@@ -358,6 +362,17 @@ TEST_F(BridgeTest, CompressedColourMakesTheSameMap) {
   PublishFrames(nh, {}, /*compressed=*/true);
   ASSERT_TRUE(WaitFor([&] { return Frames("png") == 10; }, 60)) << BridgeLog();
   EXPECT_EQ(Compare(Voxels(*client_, "maps/png"), Reference("png_ref")), "same");
+}
+
+TEST_F(BridgeTest, ADepthOnlyCameraMakesTheMapInGrey) {
+  ros::NodeHandle nh;
+  StartBridge("depth_only", {"_use_color:=false"});
+  publish_color_ = false;
+  PublishFrames(nh);
+  ASSERT_TRUE(WaitFor([&] { return Frames("depth_only") == 10; }, 60)) << BridgeLog();
+  EXPECT_EQ(Compare(Voxels(*client_, "maps/depth_only"),
+                    ReferenceVoxels(*client_, frames_, "depth_only_ref", /*with_color=*/false)),
+            "same");
 }
 
 TEST_F(BridgeTest, AFrameWithoutAPoseIsCountedNotSent) {

@@ -17,14 +17,20 @@
 namespace skimap::testing {
 
 // The voxels of `frames` sent as API frames (ReferenceFrame) into a new 2 cm map `id`.
+// Without `with_color`, the frames carry no colour (voxels grey).
 inline VoxelSet ReferenceVoxels(client::MapClient& client, const std::vector<MmFrame>& frames,
-                                const std::string& id) {
+                                const std::string& id, bool with_color = true) {
   v1::CreateMapRequest create;
   create.set_map_id(id);
   create.mutable_options()->set_resolution(0.02);
   EXPECT_TRUE(client.CreateMap(create).ok());
   for (const MmFrame& f : frames) {
-    auto ack = client.IntegrateFrame(ReferenceFrame(f, "maps/" + id, f.index));
+    v1::Frame frame = ReferenceFrame(f, "maps/" + id, f.index);
+    if (!with_color) {
+      frame.clear_color();
+      frame.set_color_encoding(v1::COLOR_ENCODING_NONE);
+    }
+    auto ack = client.IntegrateFrame(frame);
     EXPECT_TRUE(ack.ok()) << ack.status();
   }
   return Voxels(client, "maps/" + id);
