@@ -4,8 +4,8 @@
 // thread collects acks as they arrive. Finish() half-closes, waits for the remaining acks
 // and returns all of them (in arrival order) or the call's error.
 //
-// Thread safety: Send and Finish from one thread; the ack callback runs on the reader
-// thread.
+// Thread safety: Send and Finish from one thread; Cancel from any; the ack callback runs on
+// the reader thread.
 #ifndef CLIENT_FRAME_STREAM_H_
 #define CLIENT_FRAME_STREAM_H_
 
@@ -37,6 +37,9 @@ class FrameStream {
   absl::Status Send(const v1::Frame& frame);
   // Ends the stream; returns every ack, or the call's status if it failed.
   absl::StatusOr<std::vector<v1::FrameAck>> Finish();
+  // Cancels the call from any thread: a blocked Send returns an error, Finish returns
+  // CANCELLED (a server that stopped answering cannot hold its caller forever).
+  void Cancel() { context_.TryCancel(); }
 
  private:
   void ReadLoop();

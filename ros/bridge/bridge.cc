@@ -110,6 +110,9 @@ class Bridge::Impl {
 
   absl::Status Start() {
     client::MapClient::Options options;
+    // Unary calls (grids, the map's stats) give up after 10 s: a stalled skimapd must not
+    // hold the node's callbacks, nor its shutdown, for the library's default minute.
+    options.timeout = absl::Seconds(10);
     client::Connection::Files files{params_.token_file, params_.tls_ca, params_.tls_cert,
                                     params_.tls_key};
     absl::StatusOr<client::Connection> connection = client::Connection::FromFiles(files);
@@ -185,8 +188,8 @@ class Bridge::Impl {
 
   void Finish() {
     timer_.stop();
-    sender_->WaitIdle(std::chrono::seconds(10));
-    Publish();
+    // The last map, unless skimapd stopped answering (then its calls would only time out).
+    if (sender_->WaitIdle(std::chrono::seconds(10))) Publish();
     const SenderStats s = sender_->Stats();
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);

@@ -13,10 +13,14 @@ FrameSender::FrameSender(client::MapClient* client, const Options& options)
 
 FrameSender::~FrameSender() {
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    std::unique_lock<std::mutex> lock(mu_);
     stop_ = true;
+    cv_.notify_all();
+    if (!cv_.wait_for(lock, std::chrono::seconds(5), [&] { return run_done_; }) &&
+        stream_ != nullptr) {
+      stream_->Cancel();
+    }
   }
-  cv_.notify_all();
   thread_.join();
 }
 
@@ -55,6 +59,13 @@ void FrameSender::OnAck(const v1::FrameAck& ack) {
 }
 
 void FrameSender::Run() {
+  RunStreams();
+  std::lock_guard<std::mutex> lock(mu_);
+  run_done_ = true;
+  cv_.notify_all();
+}
+
+void FrameSender::RunStreams() {
   auto backoff = std::chrono::milliseconds(500);
   while (true) {
     {
@@ -67,6 +78,10 @@ void FrameSender::Run() {
     stream_options.on_ack = [this](const v1::FrameAck& ack) { OnAck(ack); };
     std::unique_ptr<client::FrameStream> stream =
         client_->OpenFrameStream(stream_options, options_.map_name);
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      stream_ = stream.get();
+    }
     bool failed = false;
     while (!failed) {
       Queued next;
@@ -87,6 +102,7 @@ void FrameSender::Run() {
     }
     absl::StatusOr<std::vector<v1::FrameAck>> done = stream->Finish();
     std::unique_lock<std::mutex> lock(mu_);
+    stream_ = nullptr;
     if (!done.ok() || failed) {
       stats_.lost += in_flight_.size();
       in_flight_.clear();

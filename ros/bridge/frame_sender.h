@@ -58,7 +58,11 @@ class FrameSender {
     uint64_t first_sequence = 0;  // the map's frame count when the bridge started
   };
   FrameSender(client::MapClient* client, const Options& options);  // client not owned
-  ~FrameSender();  // stops the stream (frames still queued are not sent)
+  // Stops the stream: frames still queued are not sent; those in flight get up to 5 s for
+  // their acks, then the call is cancelled. Known limit: a skimapd that stops reading
+  // altogether (a stopped process, a hung host) leaves gRPC's blocking Write waiting even
+  // after the cancel, and this destructor with it (docs/ros.md, "Limits").
+  ~FrameSender();
 
   using Clock = std::chrono::steady_clock;
   // Queues `frame` (map and sequence are set here) stamped `stamp_ns`, which reached the
@@ -82,21 +86,24 @@ class FrameSender {
     int64_t stamp_ns;
     Clock::time_point offered;
   };
-  void Run();
+  void Run();         // RunStreams, then run_done_
+  void RunStreams();  // streams until stop_
   void OnAck(const v1::FrameAck& ack);
 
   client::MapClient* const client_;
   const Options options_;
   mutable std::mutex mu_;
   std::condition_variable cv_;
-  std::deque<Queued> queue_;              // guarded by mu_
-  bool stop_ = false;                     // guarded by mu_
-  uint64_t next_sequence_;                // guarded by mu_
-  std::map<uint64_t, Queued> in_flight_;  // by sequence; guarded by mu_ (frame cleared)
-  SenderStats stats_;                     // guarded by mu_
-  std::map<uint64_t, SentFrame> acked_;   // by sequence; guarded by mu_
-  std::map<int64_t, uint64_t> by_stamp_;  // stamp -> sequence; guarded by mu_
-  uint64_t version_ = 0;                  // guarded by mu_
+  std::deque<Queued> queue_;               // guarded by mu_
+  bool stop_ = false;                      // guarded by mu_
+  uint64_t next_sequence_;                 // guarded by mu_
+  std::map<uint64_t, Queued> in_flight_;   // by sequence; guarded by mu_ (frame cleared)
+  SenderStats stats_;                      // guarded by mu_
+  std::map<uint64_t, SentFrame> acked_;    // by sequence; guarded by mu_
+  std::map<int64_t, uint64_t> by_stamp_;   // stamp -> sequence; guarded by mu_
+  uint64_t version_ = 0;                   // guarded by mu_
+  client::FrameStream* stream_ = nullptr;  // the open call; guarded by mu_
+  bool run_done_ = false;                  // guarded by mu_
   std::thread thread_;
 };
 

@@ -46,5 +46,7 @@ int main(int argc, char** argv) {
   while (!stop && ros::ok()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   (*bridge)->Finish();
   ros::shutdown();
+  spinner.stop();  // no callback runs while the bridge is destroyed
+  bridge->reset();
   return 0;
 }
