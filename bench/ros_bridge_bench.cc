@@ -28,7 +28,9 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <sstream>
+#include <tuple>
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
@@ -228,6 +230,26 @@ int main(int argc, char** argv) {
               cli_fps, cli_cpu, 1e3 * cli_cpu / count,
               (unsigned long long)(cli_map.ok() ? cli_map->stats().frames() : 0));
 
+  // Both sides fused the same frames: the bridge's 30 Hz map (every frame acknowledged)
+  // must hold exactly the CLI's voxels.
+  const auto voxels = [&](const std::string& map) {
+    skimap::v1::GetVoxelsRequest request;
+    request.set_map("maps/" + map);
+    request.set_min_voxel_weight(0);
+    std::set<std::tuple<double, double, double, float, uint32_t>> out;
+    auto all = client->GetAllVoxels(request);
+    if (all.ok()) {
+      for (const skimap::v1::Voxel& v : *all) {
+        out.insert({v.center().x(), v.center().y(), v.center().z(), v.weight(), v.rgb()});
+      }
+    }
+    return out;
+  };
+  const auto bridge_voxels = voxels(absl::StrCat("bridge", int(rate)));
+  const bool same = !bridge_voxels.empty() && bridge_voxels == voxels("cli");
+  std::printf("bridge at %.0f Hz and skimap stream BAG: %s voxels (%zu)\n", rate,
+              same ? "the same" : "DIFFERENT", bridge_voxels.size());
+
   spinner.stop();
   ros::shutdown();
   kill(skimapd, SIGTERM);
@@ -235,5 +257,5 @@ int main(int argc, char** argv) {
   kill(master, SIGTERM);
   Reap(master);
   fs::remove_all(dir);
-  return 0;
+  return same ? 0 : 1;
 }

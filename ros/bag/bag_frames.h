@@ -6,7 +6,9 @@
 // recorded just after its image still poses it. A depth image with no colour image within
 // sync_tolerance is sent without colour only when the bag has no colour topic; otherwise it
 // is skipped and counted, as is one whose pose tf cannot give at its stamp (before the
-// first transform, a gap in the tree) and one before the first camera_info.
+// first transform, a gap in the tree). Each frame takes the last camera_info (with another
+// K or size than the one before) stamped at or before it, frames before the first take the
+// first; a bag without camera_info is refused.
 //
 // Topics, when not given: the one Image topic whose name says depth (preferring
 // "registered" / "aligned" ones), the one Image or CompressedImage topic whose name does not
@@ -60,7 +62,6 @@ struct BagFrameStats {
   uint64_t frames = 0;        // handed to the callback (made or failed)
   uint64_t without_color = 0;
   uint64_t without_pose = 0;
-  uint64_t without_camera_info = 0;
   std::string first_pose_error;  // tf's message for the first frame without a pose
 };
 
