@@ -12,9 +12,18 @@
 //   absl::StatusOr<PgResult> r = conn->Exec("SELECT options FROM maps WHERE id = $1", p);
 //   std::string options = r->Bytes(0, 0);
 //
-// Status codes: Unavailable (connection lost, server shutting down, serialization failure
-// or deadlock: retry), AlreadyExists (unique violation), ResourceExhausted (disk full, too
-// many connections), InvalidArgument (bad input), Internal otherwise.
+// Status codes: Unavailable (connection lost, server shutting down, a standby that cannot
+// write, serialization failure or deadlock: retry), AlreadyExists (unique violation),
+// ResourceExhausted (disk full, too many connections), InvalidArgument (bad input),
+// Internal otherwise.
+//
+// A replicated cluster (docs/operations.md, "A replicated store"): a DSN may list several
+// hosts (postgresql://u@h1:5432,h2:5432/db). The connection then tries them itself, from
+// the one after the host that last failed, and keeps the first that is a primary able to
+// commit: not in recovery, and either not configured for synchronous replication or with
+// a synchronous standby streaming (an old primary cut off from its standby, whose commits
+// would wait forever, is passed over). Every statement has a client-side deadline: a
+// server that stops answering (SIGSTOP, a partition) costs the connection, not the thread.
 //
 // Thread safety: a PgConnection belongs to one thread at a time; PgPool is thread safe.
 #ifndef SKIMAP_STORAGE_POSTGRES_H_
@@ -29,6 +38,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
 
 struct pg_conn;
 struct pg_result;
@@ -74,14 +84,21 @@ class PgResult {
   pg_result* r_;
 };
 
+// How connections reach and keep their server.
+struct PgOptions {
+  std::string setup;  // SET statements, run after every (re)connect
+  // Past this a statement's connection is dropped and the statement is Unavailable.
+  absl::Duration statement_timeout = absl::Seconds(10);
+};
+
 class PgConnection {
  public:
-  // Connects to `dsn` (a libpq connection string or postgres:// URI) and runs `setup`
-  // (SET statements; again after every reconnect) after turning synchronous_commit on.
-  // Unavailable if the server cannot be reached, with libpq's message (which never
-  // includes the password).
+  // Connects to `dsn` (a libpq connection string or postgres:// URI; several hosts: see
+  // above) and runs options.setup after turning synchronous_commit on. Unavailable if no
+  // host can be reached (or none is a primary able to commit), with libpq's message (which
+  // never includes the password). A DSN libpq cannot parse is InvalidArgument.
   static absl::StatusOr<std::unique_ptr<PgConnection>> Connect(const std::string& dsn,
-                                                               const std::string& setup = "");
+                                                               const PgOptions& options = {});
   ~PgConnection();
   PgConnection(const PgConnection&) = delete;
   PgConnection& operator=(const PgConnection&) = delete;
@@ -90,25 +107,39 @@ class PgConnection {
   absl::StatusOr<PgResult> Exec(std::string_view sql, const PgParams& params = {});
   // Runs statements without parameters (several separated by ';').
   absl::Status ExecScript(std::string_view sql);
-  // True when the connection is usable (not broken by a network error).
+  // True when the connection is usable (not broken by a network error, a deadline, or a
+  // server that turned out to be a standby).
   bool healthy() const;
-  // Reconnects a broken connection. Unavailable if the server cannot be reached.
+  // Reconnects a broken connection (trying every host of the DSN). Unavailable if none
+  // can be reached.
   absl::Status Reset();
+  // "host:port" of the server this connection is on ("" while broken).
+  std::string server() const;
 
  private:
-  PgConnection(pg_conn* c, std::string setup) : c_(c), setup_(std::move(setup)) {}
-  absl::Status Check(pg_result* r, std::string_view sql) const;
+  struct Hosts;  // the DSN's parsed options and host list (postgres.cc)
+  PgConnection(std::shared_ptr<const Hosts> hosts, PgOptions options);
+  absl::Status Open();
+  absl::StatusOr<pg_conn*> OpenHost(size_t i);
+  absl::Status Check(pg_result* r, std::string_view sql);
+  // Sends what `send` queued and waits for every result until the deadline; the last.
+  absl::StatusOr<PgResult> Await(bool sent, std::string_view sql);
+  void Drop();
   absl::Status Setup();
-  pg_conn* c_;
-  const std::string setup_;
+
+  pg_conn* c_ = nullptr;  // nullptr while broken
+  std::shared_ptr<const Hosts> hosts_;
+  const PgOptions options_;
+  size_t host_ = 0;           // the host c_ is on (several hosts)
+  bool failed_here_ = false;  // host_ failed this connection: start the next Open after it
 };
 
 class PgPool {
  public:
-  // Opens `size` connections to `dsn` (at least 1), each set up with `setup` (Connect).
+  // Opens `size` connections to `dsn` (at least 1), each with `options` (Connect).
   // The Connect error otherwise.
   static absl::StatusOr<std::unique_ptr<PgPool>> Open(const std::string& dsn, int size,
-                                                      const std::string& setup = "");
+                                                      const PgOptions& options = {});
 
   // A connection taken from the pool; back to it on destruction (a broken one is reset
   // first).
@@ -156,6 +187,12 @@ class PgTransaction {
 // (serialization failure, deadlock): PgConnection reports them as Unavailable with
 // "SQLSTATE 40001" / "40P01" in the message.
 bool IsRetryable(const absl::Status& s);
+// The number of hosts `dsn` lists (0 when libpq cannot parse it, 1 without a host).
+int PgHostCount(const std::string& dsn);
+
+// True when `s` (Unavailable, not IsRetryable) says the connection is gone or on a server
+// that cannot write: what a reconnect, perhaps to another host, may cure.
+bool IsConnectionLost(const absl::Status& s);
 
 }  // namespace skimap::storage
 

@@ -110,20 +110,24 @@ absl::Status PostgresMapStore::Leave() {
 }
 
 absl::StatusOr<std::vector<NodeInfo>> PostgresMapStore::ListNodes(absl::Duration forget_after) {
-  PgPool::Lease c = pool_->Take();
-  PgParams p;
-  p.Int(absl::ToInt64Milliseconds(forget_after));
-  SK_RETURN_IF_ERROR(
-      c->Exec(absl::StrCat("DELETE FROM nodes WHERE heartbeat_unix_ms < ", kPgNowMs, " - $1"), p)
-          .status());
-  SK_ASSIGN_OR_RETURN(r, c->Exec(absl::StrCat("SELECT id, address, started_unix_ms, "
-                                              "heartbeat_unix_ms, heartbeat_unix_ms + ttl_ms > ",
-                                              kPgNowMs, " FROM nodes ORDER BY id")));
-  std::vector<NodeInfo> out;
-  for (int i = 0; i < r.rows(); ++i) {
-    out.push_back({r.Bytes(i, 0), r.Bytes(i, 1), r.Int(i, 2), r.Int(i, 3), r.Bool(i, 4)});
-  }
-  return out;
+  return WithConnection<std::vector<NodeInfo>>(
+      [&](PgConnection& c) -> absl::StatusOr<std::vector<NodeInfo>> {
+        PgParams p;
+        p.Int(absl::ToInt64Milliseconds(forget_after));
+        SK_RETURN_IF_ERROR(
+            c.Exec(absl::StrCat("DELETE FROM nodes WHERE heartbeat_unix_ms < ", kPgNowMs, " - $1"),
+                   p)
+                .status());
+        SK_ASSIGN_OR_RETURN(
+            r, c.Exec(absl::StrCat("SELECT id, address, started_unix_ms, heartbeat_unix_ms, "
+                                   "heartbeat_unix_ms + ttl_ms > ",
+                                   kPgNowMs, " FROM nodes ORDER BY id")));
+        std::vector<NodeInfo> out;
+        for (int i = 0; i < r.rows(); ++i) {
+          out.push_back({r.Bytes(i, 0), r.Bytes(i, 1), r.Int(i, 2), r.Int(i, 3), r.Bool(i, 4)});
+        }
+        return out;
+      });
 }
 
 absl::StatusOr<Lease> PostgresMapStore::AcquireLease(const std::string& id, absl::Duration ttl) {
@@ -163,11 +167,13 @@ absl::StatusOr<Lease> PostgresMapStore::AcquireLease(const std::string& id, absl
 }
 
 absl::StatusOr<std::vector<Lease>> PostgresMapStore::ListLeases() {
-  PgPool::Lease c = pool_->Take();
-  SK_ASSIGN_OR_RETURN(r, c->Exec(absl::StrCat(kLeaseSelect, " ORDER BY l.map")));
-  std::vector<Lease> out;
-  for (int i = 0; i < r.rows(); ++i) out.push_back(LeaseAt(r, i));
-  return out;
+  return WithConnection<std::vector<Lease>>(
+      [&](PgConnection& c) -> absl::StatusOr<std::vector<Lease>> {
+        SK_ASSIGN_OR_RETURN(r, c.Exec(absl::StrCat(kLeaseSelect, " ORDER BY l.map")));
+        std::vector<Lease> out;
+        for (int i = 0; i < r.rows(); ++i) out.push_back(LeaseAt(r, i));
+        return out;
+      });
 }
 
 }  // namespace skimap::storage

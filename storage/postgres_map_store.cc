@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <climits>
+#include <optional>
 
+#include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "storage/postgres_schema.h"
 #include "storage/status_macros.h"
@@ -27,6 +29,8 @@ absl::Status NoPgMap(const std::string& id) {
 
 int64_t Clamp(size_t v) { return int64_t(std::min<size_t>(v, INT64_MAX)); }
 
+constexpr char kOutcomePayload[] = "skimap.storage/commit-outcome";
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<PostgresMapStore>> PostgresMapStore::Open(const std::string& dsn,
@@ -40,21 +44,87 @@ absl::StatusOr<std::unique_ptr<PostgresMapStore>> PostgresMapStore::Open(const s
           ? 60000
           : std::max<int64_t>(1000, absl::ToInt64Milliseconds(options.lease_ttl));
   SK_ASSIGN_OR_RETURN(
-      pool, PgPool::Open(dsn, options.connections,
-                         absl::StrCat("SET idle_in_transaction_session_timeout = ", idle_ms)));
+      pool,
+      PgPool::Open(dsn, options.connections,
+                   {.setup = absl::StrCat("SET idle_in_transaction_session_timeout = ", idle_ms),
+                    .statement_timeout = options.statement_timeout}));
   {
     PgPool::Lease c = pool->Take();
     SK_RETURN_IF_ERROR(MigratePostgres(*c));
+    if (options.require_synchronous_standby) {
+      SK_ASSIGN_OR_RETURN(r, c->Exec("SELECT current_setting('synchronous_standby_names')"));
+      if (r.Bytes(0, 0).empty()) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "map store: the PostgreSQL primary at ", c->server(),
+            " does not replicate synchronously (synchronous_standby_names is empty): an "
+            "acknowledged frame would be on one database node only. Configure synchronous "
+            "replication (docs/operations.md, \"A replicated store\") or accept one node "
+            "(skimapd --store_durability=primary)"));
+      }
+    }
   }
   return std::unique_ptr<PostgresMapStore>(new PostgresMapStore(std::move(pool), options));
 }
 
-absl::Status PostgresMapStore::InTransaction(const std::function<absl::Status(PgConnection&)>& fn) {
-  return InTransaction<bool>("",
-                             [&](PgConnection& c) -> absl::StatusOr<bool> {
-                               SK_RETURN_IF_ERROR(fn(c));
-                               return true;
-                             })
+PostgresMapStore::Health PostgresMapStore::health() const {
+  MutexLock lock(&health_mu_);
+  return health_;
+}
+
+void PostgresMapStore::CountReconnect() {
+  MutexLock lock(&health_mu_);
+  ++health_.reconnects;
+}
+
+void PostgresMapStore::Count(Outcome o) {
+  MutexLock lock(&health_mu_);
+  switch (o) {
+    case Outcome::kLost:
+      ++health_.unknown_commits;
+      break;
+    case Outcome::kCommitted:
+      ++health_.unknown_committed;
+      break;
+    case Outcome::kUnresolved:
+      ++health_.unknown_unresolved;
+      break;
+  }
+}
+
+bool PostgresMapStore::Backoff(absl::Time deadline, absl::Duration* step) {
+  if (absl::Now() + *step > deadline) return false;
+  absl::SleepFor(*step);
+  *step = std::min(*step * 2, absl::Seconds(1));
+  return true;
+}
+
+absl::Status PostgresMapStore::NoSynchronousStandby() {
+  return absl::UnavailableError(
+      "map store: the PostgreSQL primary has no synchronous standby (synchronous_standby_names "
+      "is empty): not acknowledged until one is attached");
+}
+
+absl::Status PostgresMapStore::OutcomeUnknown(absl::Status s) {
+  absl::Status out(s.code(), absl::StrCat(s.message(),
+                                          "; the answer to the last COMMIT was lost and the "
+                                          "database was not reachable again to read it back"));
+  out.SetPayload(kOutcomePayload, absl::Cord("unknown"));
+  return out;
+}
+
+bool PostgresMapStore::IsOutcomeUnknown(const absl::Status& s) {
+  return s.GetPayload(kOutcomePayload).has_value();
+}
+
+absl::Status PostgresMapStore::InTransaction(const std::function<absl::Status(PgConnection&)>& fn,
+                                             const Resolver<bool>& resolve) {
+  return InTransaction<bool>(
+             "",
+             [&](PgConnection& c) -> absl::StatusOr<bool> {
+               SK_RETURN_IF_ERROR(fn(c));
+               return true;
+             },
+             resolve)
       .status();
 }
 
@@ -112,26 +182,41 @@ absl::Status PostgresMapStore::Insert(const std::string& id, const std::string& 
     return absl::InvalidArgumentError("map store: journal base beyond 2^63");
   }
   const Clock::time_point start = Clock::now();
-  absl::Status s = InTransaction([&](PgConnection& c) -> absl::Status {
-    PgParams p;
-    p.Text(id).Bytes(options).Int(int64_t(last_position)).Bool(importing);
-    absl::StatusOr<PgResult> r = c.Exec(
-        "INSERT INTO maps (id, options, last_position, importing) VALUES ($1, $2, $3, $4)", p);
-    if (absl::IsAlreadyExists(r.status())) {
-      return absl::AlreadyExistsError(absl::StrCat("map store: map ", id, " exists"));
-    }
-    SK_RETURN_IF_ERROR(r.status());
-    if (options_.node_id.empty()) return absl::OkStatus();
-    // A fleet node creates the map holding its lease.
-    PgParams l;
-    l.Text(id).Text(options_.node_id).Int(absl::ToInt64Milliseconds(options_.lease_ttl));
-    return c
-        .Exec(absl::StrCat("INSERT INTO leases (map, node, token, expires_unix_ms) VALUES ($1, "
-                           "$2, 1, ",
-                           kPgNowMs, " + $3)"),
-              l)
-        .status();
-  });
+  absl::Status s = InTransaction(
+      [&](PgConnection& c) -> absl::Status {
+        PgParams p;
+        p.Text(id).Bytes(options).Int(int64_t(last_position)).Bool(importing);
+        absl::StatusOr<PgResult> r = c.Exec(
+            "INSERT INTO maps (id, options, last_position, importing) VALUES ($1, $2, $3, $4)", p);
+        if (absl::IsAlreadyExists(r.status())) {
+          return absl::AlreadyExistsError(absl::StrCat("map store: map ", id, " exists"));
+        }
+        SK_RETURN_IF_ERROR(r.status());
+        if (options_.node_id.empty()) return absl::OkStatus();
+        // A fleet node creates the map holding its lease.
+        PgParams l;
+        l.Text(id).Text(options_.node_id).Int(absl::ToInt64Milliseconds(options_.lease_ttl));
+        return c
+            .Exec(absl::StrCat("INSERT INTO leases (map, node, token, expires_unix_ms) VALUES ($1, "
+                               "$2, 1, ",
+                               kPgNowMs, " + $3)"),
+                  l)
+            .status();
+      },
+      // A lost answer: the map as this call would have made it (with this node's lease, for a
+      // fleet node) is taken as made by it.
+      [&](PgConnection& c) -> absl::StatusOr<std::optional<bool>> {
+        absl::StatusOr<StoredMap> map = GetMapOn(c, id);
+        if (absl::IsNotFound(map.status())) return std::nullopt;
+        if (!map.ok()) return map.status();
+        if (map->options != options || map->importing != importing) return std::nullopt;
+        if (options_.node_id.empty()) return true;
+        PgParams p;
+        p.Text(id);
+        SK_ASSIGN_OR_RETURN(r, c.Exec("SELECT node, token FROM leases WHERE map = $1", p));
+        if (r.rows() == 1 && r.Bytes(0, 0) == options_.node_id && r.Int(0, 1) == 1) return true;
+        return std::nullopt;
+      });
   if (s.ok() && !options_.node_id.empty())
     SetFence(id, 1, start + absl::ToChronoNanoseconds(options_.lease_ttl));
   return s;
@@ -148,30 +233,63 @@ absl::Status PostgresMapStore::FinishImport(const std::string& id) {
 }
 
 absl::Status PostgresMapStore::DeleteMap(const std::string& id) {
-  absl::Status s = InTransaction([&](PgConnection& c) -> absl::Status {
-    SK_RETURN_IF_ERROR(GetMapOn(c, id).status());
-    SK_RETURN_IF_ERROR(CheckFence(c, id));
-    PgParams p;
-    p.Text(id);
-    // The foreign keys cascade to the journal, the chunks and the lease.
-    SK_ASSIGN_OR_RETURN(r, c.Exec("DELETE FROM maps WHERE id = $1", p));
-    return r.affected() == 0 ? NoPgMap(id) : absl::OkStatus();
-  });
+  absl::Status s = InTransaction(
+      [&](PgConnection& c) -> absl::Status {
+        SK_RETURN_IF_ERROR(GetMapOn(c, id).status());
+        SK_RETURN_IF_ERROR(CheckFence(c, id));
+        PgParams p;
+        p.Text(id);
+        // The foreign keys cascade to the journal, the chunks and the lease.
+        SK_ASSIGN_OR_RETURN(r, c.Exec("DELETE FROM maps WHERE id = $1", p));
+        return r.affected() == 0 ? NoPgMap(id) : absl::OkStatus();
+      },
+      // A lost answer: a map no longer there was deleted by this call.
+      [&](PgConnection& c) -> absl::StatusOr<std::optional<bool>> {
+        absl::StatusOr<StoredMap> map = GetMapOn(c, id);
+        if (absl::IsNotFound(map.status())) return true;
+        if (!map.ok()) return map.status();
+        return std::nullopt;
+      });
   if (s.ok()) DropFence(id);
   return s;
 }
 
 absl::StatusOr<StoredMap> PostgresMapStore::GetMap(const std::string& id) {
-  PgPool::Lease c = pool_->Take();
-  return GetMapOn(*c, id);
+  return WithConnection<StoredMap>([&](PgConnection& c) { return GetMapOn(c, id); });
 }
 
 absl::StatusOr<std::vector<StoredMap>> PostgresMapStore::ListMaps() {
-  PgPool::Lease c = pool_->Take();
-  SK_ASSIGN_OR_RETURN(r, c->Exec(absl::StrCat("SELECT ", kPgMapColumns, " FROM maps ORDER BY id")));
-  std::vector<StoredMap> out;
-  for (int i = 0; i < r.rows(); ++i) out.push_back(MapAt(r, i));
-  return out;
+  return WithConnection<std::vector<StoredMap>>(
+      [&](PgConnection& c) -> absl::StatusOr<std::vector<StoredMap>> {
+        SK_ASSIGN_OR_RETURN(
+            r, c.Exec(absl::StrCat("SELECT ", kPgMapColumns, " FROM maps ORDER BY id")));
+        std::vector<StoredMap> out;
+        for (int i = 0; i < r.rows(); ++i) out.push_back(MapAt(r, i));
+        return out;
+      });
+}
+
+absl::StatusOr<std::optional<uint64_t>> PostgresMapStore::Resolve(PgConnection& c,
+                                                                  const std::string& id,
+                                                                  const PendingAppend& append) {
+  // The positions the lost transaction numbered its records with: they hold exactly its
+  // records if it committed (the map's row lock orders appends; positions are never reused),
+  // and nothing or other records if it did not.
+  const uint64_t first = append.last - append.records.size() + 1;
+  PgParams p;
+  p.Text(id).Int(int64_t(first)).Int(int64_t(append.last));
+  SK_ASSIGN_OR_RETURN(r, c.Exec("SELECT position, kind, payload FROM journal WHERE map = $1 AND "
+                                "position BETWEEN $2 AND $3 ORDER BY position",
+                                p));
+  if (size_t(r.rows()) != append.records.size()) return std::nullopt;
+  for (int i = 0; i < r.rows(); ++i) {
+    const JournalRecord& mine = append.records[i];
+    if (uint64_t(r.Int(i, 0)) != first + i || r.Int(i, 1) != mine.kind ||
+        r.Bytes(i, 2) != mine.payload) {
+      return std::nullopt;
+    }
+  }
+  return append.last;
 }
 
 absl::StatusOr<uint64_t> PostgresMapStore::AppendJournal(
@@ -182,26 +300,71 @@ absl::StatusOr<uint64_t> PostgresMapStore::AppendJournal(
       return absl::InvalidArgumentError("map store: unknown journal record kind");
     }
   }
-  return InTransaction<uint64_t>("", [&](PgConnection& c) -> absl::StatusOr<uint64_t> {
-    PgParams p;
-    p.Text(id).Int(int64_t(records.size()));
-    // Locks the map's row: appends to one map are numbered one after the other.
-    SK_ASSIGN_OR_RETURN(r, c.Exec("UPDATE maps SET last_position = last_position + $2 WHERE id "
-                                  "= $1 RETURNING last_position",
-                                  p));
-    if (r.rows() == 0) return NoPgMap(id);
-    SK_RETURN_IF_ERROR(CheckFence(c, id));
-    const uint64_t last = uint64_t(r.Int(0, 0));
-    uint64_t position = last - records.size();
-    for (const JournalRecord& record : records) {
-      PgParams q;
-      q.Text(id).Int(int64_t(++position)).Int(record.kind).Bytes(record.payload);
-      SK_RETURN_IF_ERROR(
-          c.Exec("INSERT INTO journal (map, position, kind, payload) VALUES ($1, $2, $3, $4)", q)
-              .status());
-    }
-    return last;  // durable once the COMMIT returns (synchronous_commit = on)
-  });
+  std::vector<PendingAppend> earlier;
+  {
+    MutexLock lock(&health_mu_);
+    auto it = unresolved_.find(id);
+    if (it != unresolved_.end()) earlier = it->second;
+  }
+  PendingAppend attempt{0, records};  // `last` set by each attempt before its COMMIT
+  absl::StatusOr<uint64_t> appended = InTransaction<uint64_t>(
+      "",
+      [&](PgConnection& c) -> absl::StatusOr<uint64_t> {
+        // Earlier appends of this map whose outcome stayed unknown: a record equal to one of
+        // them that did commit is that record (answered, not written twice).
+        for (const PendingAppend& u : earlier) {
+          SK_ASSIGN_OR_RETURN(was, Resolve(c, id, u));
+          if (was.has_value() && u.records.size() == records.size() &&
+              std::equal(records.begin(), records.end(), u.records.begin(),
+                         [](const JournalRecord& a, const JournalRecord& b) {
+                           return a.kind == b.kind && a.payload == b.payload;
+                         })) {
+            return *was;
+          }
+        }
+        PgParams p;
+        p.Text(id).Int(int64_t(records.size()));
+        // Locks the map's row: appends to one map are numbered one after the other.
+        SK_ASSIGN_OR_RETURN(
+            r, c.Exec("UPDATE maps SET last_position = last_position + $2 WHERE id = $1 "
+                      "RETURNING last_position, current_setting('synchronous_standby_names') <> ''",
+                      p));
+        if (r.rows() == 0) return NoPgMap(id);
+        SK_RETURN_IF_ERROR(CheckFence(c, id));
+        const bool synchronous = r.Bool(0, 1);
+        {
+          MutexLock lock(&health_mu_);
+          health_.synchronous = synchronous ? 1 : 0;
+          health_.server = c.server();
+          if (!synchronous && options_.require_synchronous_standby) ++health_.standby_waits;
+        }
+        if (!synchronous && options_.require_synchronous_standby) return NoSynchronousStandby();
+        const uint64_t last = uint64_t(r.Int(0, 0));
+        uint64_t position = last - records.size();
+        for (const JournalRecord& record : records) {
+          PgParams q;
+          q.Text(id).Int(int64_t(++position)).Int(record.kind).Bytes(record.payload);
+          SK_RETURN_IF_ERROR(
+              c.Exec("INSERT INTO journal (map, position, kind, payload) VALUES ($1, $2, $3, $4)",
+                     q)
+                  .status());
+        }
+        attempt.last = last;
+        // Durable once the COMMIT returns (synchronous_commit = on; with a synchronous
+        // standby, on the standby too).
+        return last;
+      },
+      [&](PgConnection& c) { return Resolve(c, id, attempt); });
+  MutexLock lock(&health_mu_);
+  if (appended.ok()) {
+    unresolved_.erase(id);  // resolved by this append's transaction (or never committed)
+  } else if (IsOutcomeUnknown(appended.status())) {
+    std::vector<PendingAppend>& kept = unresolved_[id];
+    kept.push_back(std::move(attempt));
+    constexpr size_t kKept = 16;
+    if (kept.size() > kKept) kept.erase(kept.begin());
+  }
+  return appended;
 }
 
 absl::Status PostgresMapStore::ReadJournal(
@@ -210,16 +373,14 @@ absl::Status PostgresMapStore::ReadJournal(
   SK_RETURN_IF_ERROR(GetMap(id).status());
   // In pages: the records of one page are held in memory, not the whole journal.
   while (limit > 0) {
-    absl::StatusOr<PgResult> r;
-    {
-      PgPool::Lease c = pool_->Take();
+    absl::StatusOr<PgResult> r = WithConnection<PgResult>([&](PgConnection& c) {
       PgParams p;
       p.Text(id).Int(Clamp(after)).Int(Clamp(std::min(limit, kRecords)));
-      r = c->Exec(
+      return c.Exec(
           "SELECT position, kind, payload FROM journal WHERE map = $1 AND position > $2 "
           "ORDER BY position LIMIT $3",
           p);
-    }
+    });
     if (!r.ok()) return r.status();
     if (r->rows() == 0) return absl::OkStatus();
     for (int i = 0; i < r->rows(); ++i) {

@@ -21,6 +21,21 @@
 // every write it lets through. Without one (a single server, tests, tools) writes are not
 // fenced and the lease calls answer FailedPrecondition.
 //
+// On a replicated cluster (a DSN listing the hosts; postgres.h) a call that loses its
+// connection reconnects, to whichever host is primary now, with backoff for up to
+// failover_timeout, and runs its transaction again. A COMMIT whose answer was lost has an
+// unknown outcome; it is resolved by reading back what the transaction wrote:
+// AppendJournal knows the positions its records took (the map's row numbers them before
+// the COMMIT) and compares the records stored there with its own, byte for byte; CreateMap
+// and DeleteMap look for the map; the other writes are idempotent and run again. An
+// append still unresolved when the budget runs out is kept, and the map's next append
+// resolves it first: a re-sent record equal to one that did commit answers its position
+// and is not written twice.
+//
+// With require_synchronous_standby an append commits only on a primary that replicates
+// synchronously (synchronous_standby_names set; its COMMIT returns once a standby has the
+// record), and waits, within failover_timeout, while it does not.
+//
 // Thread safety: thread safe (a pool of connections).
 #ifndef SKIMAP_STORAGE_POSTGRES_MAP_STORE_H_
 #define SKIMAP_STORAGE_POSTGRES_MAP_STORE_H_
@@ -28,9 +43,13 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/base/thread_annotations.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "base/mutex.h"
 #include "storage/lease_store.h"
@@ -46,7 +65,26 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
     std::string node_id;  // "" = not a fleet node (writes unfenced)
     // Lease of the maps this node creates (CreateMap, BeginImport).
     absl::Duration lease_ttl = absl::Seconds(6);
+    // How long a call keeps reconnecting (and an append waits for a synchronous standby)
+    // before it answers Unavailable.
+    absl::Duration failover_timeout = absl::Seconds(30);
+    // A statement without an answer for this long costs its connection (postgres.h).
+    absl::Duration statement_timeout = absl::Seconds(5);
+    // Appends acknowledge only once a synchronous standby has the record; Open refuses a
+    // server not configured for synchronous replication (FailedPrecondition).
+    bool require_synchronous_standby = false;
   };
+  // What the store has seen of its database (skimapd's /metrics).
+  struct Health {
+    uint64_t reconnects = 0;          // connections re-established after a loss
+    uint64_t unknown_commits = 0;     // COMMITs of non-idempotent writes whose answer was lost
+    uint64_t unknown_committed = 0;   // ... that had committed (read back)
+    uint64_t unknown_unresolved = 0;  // ... that could not be read back within the budget
+    uint64_t standby_waits = 0;       // appends held back for want of a synchronous standby
+    int synchronous = -1;             // the primary replicates synchronously: 1, 0, -1 unknown
+    std::string server;               // host:port of the last successful write
+  };
+  Health health() const;
   // Connects to `dsn` (libpq connection string or postgres:// URI) and migrates the
   // schema. Unavailable (unreachable), FailedPrecondition (schema of newer software).
   static absl::StatusOr<std::unique_ptr<PostgresMapStore>> Open(const std::string& dsn,
@@ -90,12 +128,40 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
   using Clock = std::chrono::steady_clock;
   PostgresMapStore(std::unique_ptr<PgPool> pool, const Options& options)
       : options_(options), pool_(std::move(pool)) {}
-  // Runs fn in one transaction on a pooled connection, again from the start (up to 5
-  // times) when it meets a serialization failure or a deadlock; commits if fn succeeds.
+  // After a COMMIT whose answer was lost: whether it happened (its result) or not
+  // (nullopt: run the transaction again), read on a new connection.
+  template <class T>
+  using Resolver = std::function<absl::StatusOr<std::optional<T>>(PgConnection&)>;
+  // Runs fn in one transaction on a pooled connection and commits if fn succeeds; again
+  // from the start (up to 5 times) when it meets a serialization failure or a deadlock,
+  // and after a reconnect, with backoff within failover_timeout, when the connection is
+  // lost or the primary lacks a wanted synchronous standby (fn answers
+  // NoSynchronousStandby()). A lost COMMIT answer goes to `resolve` (none: run again).
   template <class T>
   absl::StatusOr<T> InTransaction(std::string_view mode,
-                                  const std::function<absl::StatusOr<T>(PgConnection&)>& fn);
-  absl::Status InTransaction(const std::function<absl::Status(PgConnection&)>& fn);
+                                  const std::function<absl::StatusOr<T>(PgConnection&)>& fn,
+                                  const Resolver<T>& resolve = nullptr);
+  absl::Status InTransaction(const std::function<absl::Status(PgConnection&)>& fn,
+                             const Resolver<bool>& resolve = nullptr);
+  // Runs fn (reads, no transaction) on a pooled connection, again after a reconnect as
+  // InTransaction does.
+  template <class T>
+  absl::StatusOr<T> WithConnection(const std::function<absl::StatusOr<T>(PgConnection&)>& fn);
+  static absl::Status NoSynchronousStandby();
+  // `s` marked (a payload) as the error of a call whose last COMMIT's answer was lost.
+  static absl::Status OutcomeUnknown(absl::Status s);
+  static bool IsOutcomeUnknown(const absl::Status& s);
+  // OutcomeUnknown(s), counted when the write has a resolver.
+  absl::Status Unresolved(absl::Status s, bool counted) {
+    if (counted) Count(Outcome::kUnresolved);
+    return OutcomeUnknown(std::move(s));
+  }
+  static bool IsNoSynchronousStandby(const absl::Status& s);
+  // Sleeps the next backoff step; false (no sleep) once `deadline` would pass.
+  static bool Backoff(absl::Time deadline, absl::Duration* step);
+  void CountReconnect();
+  enum class Outcome { kLost, kCommitted, kUnresolved };
+  void Count(Outcome o);
   // Fleet nodes: FailedPrecondition unless the lease of `id` names this node with the
   // token it holds (the row is locked FOR SHARE until the transaction ends). OK otherwise.
   absl::Status CheckFence(PgConnection& c, const std::string& id);
@@ -109,29 +175,101 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
   void SetFence(const std::string& id, int64_t token, Clock::time_point valid_until);
   void DropFence(const std::string& id);
 
+  // Appends whose outcome stayed unknown past failover_timeout, per map (positions and
+  // records), resolved by the map's next append.
+  struct PendingAppend {
+    uint64_t last = 0;
+    std::vector<JournalRecord> records;
+  };
+  absl::StatusOr<std::optional<uint64_t>> Resolve(PgConnection& c, const std::string& id,
+                                                  const PendingAppend& append);
+
   const Options options_;
   std::unique_ptr<PgPool> pool_;
+  mutable Mutex health_mu_;
+  Health health_ ABSL_GUARDED_BY(health_mu_);
+  std::map<std::string, std::vector<PendingAppend>> unresolved_ ABSL_GUARDED_BY(health_mu_);
   Mutex fence_mu_;
   std::map<std::string, Held> fences_ ABSL_GUARDED_BY(fence_mu_);  // leases this node holds
 };
 
 template <class T>
 absl::StatusOr<T> PostgresMapStore::InTransaction(
-    std::string_view mode, const std::function<absl::StatusOr<T>(PgConnection&)>& fn) {
-  constexpr int kAttempts = 5;
+    std::string_view mode, const std::function<absl::StatusOr<T>(PgConnection&)>& fn,
+    const Resolver<T>& resolve) {
+  constexpr int kAttempts = 5;  // serialization failures and deadlocks
+  const absl::Time deadline = absl::Now() + options_.failover_timeout;
+  absl::Duration step = absl::Milliseconds(50);
   PgPool::Lease c = pool_->Take();
   absl::StatusOr<T> result = absl::UnknownError("not run");
-  for (int attempt = 0; attempt < kAttempts; ++attempt) {
-    PgTransaction tx(*c, mode);
-    if (!tx.status().ok()) return tx.status();
-    result = fn(*c);
-    if (result.ok()) {
-      absl::Status committed = tx.Commit();
-      if (!committed.ok()) result = committed;
+  bool unknown = false;  // the last COMMIT's answer was lost
+  for (int serialization = 0;;) {
+    if (!c->healthy()) {
+      if (absl::Status s = c->Reset(); !s.ok()) {
+        if (!Backoff(deadline, &step)) return unknown ? Unresolved(s, resolve != nullptr) : s;
+        continue;
+      }
+      CountReconnect();
     }
-    if (!IsRetryable(result.status())) return result;
+    if (unknown && resolve != nullptr) {
+      absl::StatusOr<std::optional<T>> was = resolve(*c);
+      if (!was.ok()) {
+        if (IsConnectionLost(was.status()) && Backoff(deadline, &step)) continue;
+        return Unresolved(was.status(), true);
+      }
+      if (was->has_value()) {
+        Count(Outcome::kCommitted);
+        return **std::move(was);
+      }
+    }
+    unknown = false;
+    {
+      PgTransaction tx(*c, mode);
+      if (!tx.status().ok()) {
+        result = tx.status();
+      } else {
+        result = fn(*c);
+        if (result.ok()) {
+          absl::Status committed = tx.Commit();
+          if (!committed.ok()) {
+            result = committed;
+            unknown = IsConnectionLost(committed);
+            if (unknown && resolve != nullptr) Count(Outcome::kLost);
+          }
+        }
+      }
+    }
+    if (result.ok()) return result;
+    if (IsRetryable(result.status())) {
+      if (++serialization < kAttempts) continue;
+      return result;
+    }
+    const bool lost = IsConnectionLost(result.status());
+    if (!lost || !Backoff(deadline, &step)) {
+      return unknown ? absl::StatusOr<T>(Unresolved(result.status(), resolve != nullptr)) : result;
+    }
   }
-  return result;
+}
+
+template <class T>
+absl::StatusOr<T> PostgresMapStore::WithConnection(
+    const std::function<absl::StatusOr<T>(PgConnection&)>& fn) {
+  const absl::Time deadline = absl::Now() + options_.failover_timeout;
+  absl::Duration step = absl::Milliseconds(50);
+  PgPool::Lease c = pool_->Take();
+  for (;;) {
+    if (!c->healthy()) {
+      if (absl::Status s = c->Reset(); !s.ok()) {
+        if (!Backoff(deadline, &step)) return s;
+        continue;
+      }
+      CountReconnect();
+    }
+    absl::StatusOr<T> result = fn(*c);
+    if (result.ok() || !IsConnectionLost(result.status()) || !Backoff(deadline, &step)) {
+      return result;
+    }
+  }
 }
 
 }  // namespace skimap::storage

@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/core/auth/listen_address.h"
 #include "server/http/rest_routes.h"
+#include "storage/postgres.h"
 #include "storage/sqlite_map_store.h"
 
 namespace skimap::server {
@@ -42,9 +43,20 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   grpc.auth = s->auth_.get();
   if (!options.fleet.store_url.empty()) {
     const std::string& advertise = options.fleet.advertise_address;
+    const std::string& durability = options.fleet.durability;
+    if (durability != "auto" && durability != "standby" && durability != "primary") {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--store_durability: '", durability, "' is not auto, standby or primary"));
+    }
     absl::StatusOr<std::unique_ptr<Fleet>> fleet = Fleet::Open(
-        options.fleet.store_url, {.address = advertise.empty() ? grpc.address : advertise,
-                                  .lease_ttl = options.fleet.lease_ttl});
+        options.fleet.store_url,
+        {.address = advertise.empty() ? grpc.address : advertise,
+         .lease_ttl = options.fleet.lease_ttl},
+        {.failover_timeout = options.fleet.failover_timeout,
+         .statement_timeout = options.fleet.statement_timeout,
+         .require_synchronous_standby =
+             durability == "standby" ||
+             (durability == "auto" && storage::PgHostCount(options.fleet.store_url) > 1)});
     if (!fleet.ok()) {
       return absl::Status(fleet.status().code(),
                           absl::StrCat("--store: ", fleet.status().message()));
@@ -77,6 +89,17 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
   s->maps_ = std::make_unique<MapService>(maps);
   if (absl::Status recovered = s->maps_->Recover(); !recovered.ok()) return recovered;
   s->metrics_->SetMapGaugeSource([m = s->maps_.get()] { return m->MetricGauges(); });
+  if (s->fleet_ != nullptr) {
+    s->metrics_->SetStoreGaugeSource([store = &s->fleet_->store()] {
+      const storage::PostgresMapStore::Health h = store->health();
+      return Metrics::StoreGauges{.reconnects = h.reconnects,
+                                  .unknown_commits = h.unknown_commits,
+                                  .unknown_committed = h.unknown_committed,
+                                  .unknown_unresolved = h.unknown_unresolved,
+                                  .standby_waits = h.standby_waits,
+                                  .synchronous = h.synchronous};
+    });
+  }
 
   absl::StatusOr<std::unique_ptr<GrpcServer>> grpc_server =
       GrpcServer::Start(grpc, s->maps_.get(), s->objects_.get());

@@ -57,6 +57,16 @@ class Server {
       std::string store_url;          // "" = a single server
       std::string advertise_address;  // where others reach this node; "" = grpc.address
       absl::Duration lease_ttl = absl::Seconds(6);
+      // What an acknowledgement means: "standby" (on the primary and a synchronous
+      // standby: the store refuses a primary not configured for it and holds appends while
+      // none is attached), "primary" (the primary's disk), "auto" (standby when store_url
+      // lists several hosts).
+      std::string durability = "auto";
+      // How long a store call reconnects, and an append waits for a standby, before it
+      // answers Unavailable.
+      absl::Duration failover_timeout = absl::Seconds(30);
+      // A store statement without an answer for this long costs its connection.
+      absl::Duration statement_timeout = absl::Seconds(5);
     };
     FleetOptions fleet;
     GrpcServer::Options grpc;

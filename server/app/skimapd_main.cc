@@ -11,7 +11,8 @@
 //           [--web_root=DIR] [--http_max_event_streams=4]
 //           [--log_format=text|json] [--metrics_public=true]
 //           [--store=postgresql://user@host:port/db [--advertise_address=HOST:PORT]
-//            [--lease_ttl_ms=6000]]
+//            [--lease_ttl_ms=6000] [--store_durability=auto|standby|primary]
+//            [--store_failover_timeout_ms=30000] [--store_statement_timeout_ms=5000]]
 //           [--auth_tokens_file=FILE] [--tls_cert=PEM --tls_key=PEM [--tls_client_ca=PEM]]
 //
 // With --auth_tokens_file every call but health needs a bearer token of the right role
@@ -92,6 +93,19 @@ ABSL_FLAG(std::string, advertise_address, "",
 ABSL_FLAG(int, lease_ttl_ms, 6000,
           "with a PostgreSQL --store: map leases and heartbeats expire after this long without "
           "renewal (renewed every third of it); a dead node's maps move after about this long");
+ABSL_FLAG(std::string, store_durability, "auto",
+          "with a PostgreSQL --store: what a frame's acknowledgement means. standby: the record "
+          "is on the primary and a synchronous standby (start refused unless the primary "
+          "replicates synchronously; appends wait while no standby is attached); primary: on "
+          "the primary's disk; auto: standby when --store lists several hosts, else primary");
+ABSL_FLAG(int, store_failover_timeout_ms, 30000,
+          "with a PostgreSQL --store: how long a store call keeps reconnecting (to whichever "
+          "host is primary) and an append waits for a synchronous standby before the call "
+          "fails UNAVAILABLE");
+ABSL_FLAG(int, store_statement_timeout_ms, 5000,
+          "with a PostgreSQL --store: a statement without an answer for this long costs its "
+          "connection (a primary that stopped answering: SIGSTOP, a partition), and the call "
+          "goes on through a reconnect");
 ABSL_FLAG(std::string, log_format, "text",
           "stderr log: text (\"skimapd: message\" lines) or json (one JSON object per line: "
           "time, level, msg, request_id, method or route, map, code, latency_ms; plus one "
@@ -166,6 +180,8 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_journal_retain_mb) < 0 || absl::GetFlag(FLAGS_max_maps) < 1 ||
       absl::GetFlag(FLAGS_max_map_voxels) < 0 || absl::GetFlag(FLAGS_max_frame_pixels) < 0 ||
       absl::GetFlag(FLAGS_max_streams_per_client) < 0 || absl::GetFlag(FLAGS_lease_ttl_ms) < 100 ||
+      absl::GetFlag(FLAGS_store_failover_timeout_ms) < 0 ||
+      absl::GetFlag(FLAGS_store_statement_timeout_ms) < 100 ||
       absl::GetFlag(FLAGS_http_max_body_mb) < 1 || absl::GetFlag(FLAGS_http_max_body_mb) > 4096 ||
       absl::GetFlag(FLAGS_http_threads) < 1 || absl::GetFlag(FLAGS_http_max_event_streams) < 0 ||
       absl::GetFlag(FLAGS_ingest_nice) < 0 || absl::GetFlag(FLAGS_ingest_nice) > 19) {
@@ -221,6 +237,11 @@ int main(int argc, char** argv) {
   options.fleet.store_url = absl::GetFlag(FLAGS_store);
   options.fleet.advertise_address = absl::GetFlag(FLAGS_advertise_address);
   options.fleet.lease_ttl = absl::Milliseconds(absl::GetFlag(FLAGS_lease_ttl_ms));
+  options.fleet.durability = absl::GetFlag(FLAGS_store_durability);
+  options.fleet.failover_timeout =
+      absl::Milliseconds(absl::GetFlag(FLAGS_store_failover_timeout_ms));
+  options.fleet.statement_timeout =
+      absl::Milliseconds(absl::GetFlag(FLAGS_store_statement_timeout_ms));
   absl::StatusOr<std::unique_ptr<skimap::server::Server>> server =
       skimap::server::Server::Start(options);
   if (!server.ok()) {

@@ -58,6 +58,7 @@ class FleetStreamer {
       if (!s.ok()) return s;
       for (uint64_t q : round.confirmed) confirmed.insert(q);
       while (next < end && confirmed.contains(next)) ++next;
+      confirmed_ = next - from;
       resent_below_ = std::max(resent_below_, round.sent_end);
       if (!round.redirect.empty()) {
         current_ = round.redirect;  // the owner
@@ -71,6 +72,8 @@ class FleetStreamer {
   }
 
   uint64_t failovers() const { return failovers_.load(); }
+  // Frames of the running (or last) Run confirmed so far, from its first on, in order.
+  uint64_t confirmed() const { return confirmed_.load(); }
 
  private:
   struct Round {
@@ -154,6 +157,7 @@ class FleetStreamer {
   uint64_t resent_below_ = 0;  // frames below this were sent before (ALREADY_EXISTS confirms)
   std::map<std::string, std::unique_ptr<client::MapClient>> clients_;
   std::atomic<uint64_t> failovers_{0};
+  std::atomic<uint64_t> confirmed_{0};
 };
 
 }  // namespace skimap::testing

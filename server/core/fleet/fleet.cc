@@ -20,7 +20,8 @@ std::string NewNodeId() {
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<Fleet>> Fleet::Open(const std::string& store_url,
-                                                   const FleetNode::Options& options) {
+                                                   const FleetNode::Options& options,
+                                                   storage::PostgresMapStore::Options store) {
   const std::string& a = options.address;
   if (a.empty() || absl::StartsWith(a, "0.0.0.0:") || absl::StartsWith(a, "[::]:") ||
       absl::EndsWith(a, ":0")) {
@@ -30,11 +31,12 @@ absl::StatusOr<std::unique_ptr<Fleet>> Fleet::Open(const std::string& store_url,
                      "not a wildcard host or port 0)"));
   }
   std::unique_ptr<Fleet> fleet(new Fleet());
-  absl::StatusOr<std::unique_ptr<storage::PostgresMapStore>> store =
-      storage::PostgresMapStore::Open(store_url,
-                                      {.node_id = NewNodeId(), .lease_ttl = options.lease_ttl});
-  if (!store.ok()) return store.status();
-  fleet->store_ = *std::move(store);
+  store.node_id = NewNodeId();
+  store.lease_ttl = options.lease_ttl;
+  absl::StatusOr<std::unique_ptr<storage::PostgresMapStore>> opened =
+      storage::PostgresMapStore::Open(store_url, store);
+  if (!opened.ok()) return opened.status();
+  fleet->store_ = *std::move(opened);
   fleet->node_ = std::make_unique<FleetNode>(fleet->store_.get(), options);
   if (absl::Status s = fleet->node_->Start(); !s.ok()) return s;
   return fleet;

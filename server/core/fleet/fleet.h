@@ -24,11 +24,13 @@ namespace skimap::server {
 
 class Fleet {
  public:
-  // Connects to `store_url` as a new node (id: host name + random suffix), registers it
-  // with `options.address` and starts heartbeating. InvalidArgument for an address that
-  // other nodes cannot reach (0.0.0.0, [::], empty); the store's error otherwise.
+  // Connects to `store_url` as a new node (id: host name + random suffix; the store opened
+  // with `store` and options.lease_ttl), registers it with `options.address` and starts
+  // heartbeating. InvalidArgument for an address that other nodes cannot reach (0.0.0.0,
+  // [::], empty); the store's error otherwise.
   static absl::StatusOr<std::unique_ptr<Fleet>> Open(const std::string& store_url,
-                                                     const FleetNode::Options& options);
+                                                     const FleetNode::Options& options,
+                                                     storage::PostgresMapStore::Options store = {});
 
   storage::PostgresMapStore& store() { return *store_; }
   FleetNode& node() { return *node_; }

@@ -108,6 +108,15 @@ struct Metrics::Instruments {
 
   std::mutex scrape_mu;  // one scrape at a time; guards the members below
   MapGaugeSource source;
+  StoreGaugeSource store_source;
+  StoreGauges store_seen;  // the store's counters at the last scrape
+  // Registered with the first store scrape (a server without one shows none).
+  Counter* store_reconnects = nullptr;
+  Counter* store_committed = nullptr;
+  Counter* store_not_committed = nullptr;
+  Counter* store_unresolved = nullptr;
+  Counter* store_waits = nullptr;
+  Gauge* store_synchronous = nullptr;
   std::map<std::string, std::vector<Gauge*>> map_gauges;  // map -> its gauges, as added
 };
 
@@ -145,6 +154,54 @@ void Metrics::SetMapGaugeSource(MapGaugeSource source) {
   in_->source = std::move(source);
 }
 
+void Metrics::SetStoreGaugeSource(StoreGaugeSource source) {
+  std::lock_guard<std::mutex> lock(in_->scrape_mu);
+  in_->store_source = std::move(source);
+}
+
+void Metrics::ScrapeStore() {
+  if (!in_->store_source) return;
+  const StoreGauges now = in_->store_source();
+  StoreGauges& seen = in_->store_seen;
+  auto counter = [&](const char* name, const char* help) -> Family<Counter>& {
+    return BuildCounter().Name(name).Help(help).Register(in_->registry);
+  };
+  if (in_->store_reconnects == nullptr) {
+    in_->store_reconnects =
+        &counter("skimap_store_reconnects_total",
+                 "Connections of the PostgreSQL store re-established after a loss")
+             .Add({});
+    Family<Counter>& unknown = counter("skimap_store_unknown_commits_total",
+                                       "COMMITs whose answer was lost, by what reading back found");
+    in_->store_committed = &unknown.Add({{"outcome", "committed"}});
+    in_->store_not_committed = &unknown.Add({{"outcome", "not_committed"}});
+    in_->store_unresolved = &unknown.Add({{"outcome", "unresolved"}});
+    in_->store_waits = &counter("skimap_store_standby_waits_total",
+                                "Journal appends held back for want of a synchronous standby")
+                            .Add({});
+    in_->store_synchronous =
+        &BuildGauge()
+             .Name("skimap_store_synchronous")
+             .Help(
+                 "1 when the store's primary replicates synchronously, 0 when not, -1 before "
+                 "the first append")
+             .Register(in_->registry)
+             .Add({});
+  }
+  auto add = [](Counter* c, uint64_t now, uint64_t before) {
+    if (now > before) c->Increment(static_cast<double>(now - before));
+  };
+  add(in_->store_reconnects, now.reconnects, seen.reconnects);
+  add(in_->store_committed, now.unknown_committed, seen.unknown_committed);
+  add(in_->store_unresolved, now.unknown_unresolved, seen.unknown_unresolved);
+  const uint64_t not_now = now.unknown_commits - now.unknown_committed - now.unknown_unresolved;
+  const uint64_t not_seen = seen.unknown_commits - seen.unknown_committed - seen.unknown_unresolved;
+  add(in_->store_not_committed, not_now, not_seen);
+  add(in_->store_waits, now.standby_waits, seen.standby_waits);
+  in_->store_synchronous->Set(now.synchronous);
+  seen = now;
+}
+
 std::string Metrics::Scrape() {
   {
     std::lock_guard<std::mutex> lock(in_->scrape_mu);
@@ -169,6 +226,7 @@ std::string Metrics::Scrape() {
       in_->instances.Remove(gauges[3]);
     }
     in_->map_gauges = std::move(now);
+    ScrapeStore();
   }
   return prometheus::TextSerializer().Serialize(in_->registry.Collect());
 }

@@ -17,6 +17,13 @@
 //   skimap_map_instances{map}
 //   skimap_grpc_request_seconds{method,code}         histogram per gRPC method and code
 //   skimap_http_request_seconds{route,code}          histogram per REST route and status
+//   skimap_store_reconnects_total                    a PostgreSQL store's reconnects, its
+//   skimap_store_unknown_commits_total{outcome}      COMMITs whose answer was lost (outcome:
+//   skimap_store_standby_waits_total                 committed, not_committed, unresolved),
+//   skimap_store_synchronous                         appends held for a synchronous standby
+//                                                    and whether the primary replicates
+//                                                    synchronously (1, 0; -1 not seen yet):
+//                                                    read at each scrape (StoreGaugeSource)
 //
 //   Metrics metrics;
 //   metrics.FrameIngested();
@@ -50,6 +57,16 @@ class Metrics {
     uint64_t instances = 0;
   };
   using MapGaugeSource = std::function<std::vector<MapGauges>()>;
+  // A PostgreSQL store's health (storage::PostgresMapStore::Health), cumulative.
+  struct StoreGauges {
+    uint64_t reconnects = 0;
+    uint64_t unknown_commits = 0;
+    uint64_t unknown_committed = 0;
+    uint64_t unknown_unresolved = 0;
+    uint64_t standby_waits = 0;
+    int synchronous = -1;
+  };
+  using StoreGaugeSource = std::function<StoreGauges()>;
 
   Metrics();
   ~Metrics();
@@ -70,11 +87,14 @@ class Metrics {
   // Called at each scrape for the per-map gauges (REQUIRES: what it reads outlives every
   // scrape). Maps it no longer lists leave the exposition.
   void SetMapGaugeSource(MapGaugeSource source);
+  // Called at each scrape for the store's metrics (none without one).
+  void SetStoreGaugeSource(StoreGaugeSource source);
   // Every metric in the Prometheus text exposition format (version 0.0.4).
   std::string Scrape();
 
  private:
   struct Instruments;  // metrics.cc: the registry and its families
+  void ScrapeStore();  // REQUIRES: scrape_mu held
   std::unique_ptr<Instruments> in_;
 };
 

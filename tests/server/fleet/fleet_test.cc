@@ -20,6 +20,7 @@
 #include "client/map_client.h"
 #include "tests/common/fleet_streamer.h"
 #include "tests/common/postgres_server.h"
+#include "tests/common/rebuild_check.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/common/synthetic_scene.h"
 #include "tests/common/voxel_set.h"
@@ -45,13 +46,6 @@ constexpr int kLeaseTtlMs = 1500;
 // lease); the floor leaves 4 s of margin over the lease for loaded CI machines.
 const absl::Duration kFailoverLimit = absl::Milliseconds(kLeaseTtlMs + 4000);
 
-v1::CreateMapRequest CreateRequest(const std::string& id) {
-  v1::CreateMapRequest request;
-  request.set_map_id(id);
-  request.mutable_options()->set_resolution(0.04);
-  return request;
-}
-
 class FleetTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -69,27 +63,11 @@ class FleetTest : public ::testing::Test {
       addresses_.push_back(nodes_.back()->address());
     }
   }
-  // Rebuilds frames `sequences` (in order) of the view sequence into a fresh map through
-  // `via` and expects it equal, voxel by voxel, to `map`.
+  // ExpectEqualToRebuild (rebuild_check.h) through the last node.
   void ExpectEqualToRebuild(const std::string& map, const std::vector<uint64_t>& sequences,
                             const std::string& rebuilt_id) {
     auto client = client::MapClient::Connect(addresses_.back());
-    ASSERT_TRUE(client->CreateMap(CreateRequest(rebuilt_id)).ok());
-    const std::string rebuilt = "maps/" + rebuilt_id;
-    auto stream = client->OpenFrameStream({.window = 4}, rebuilt);
-    for (uint64_t s : sequences)
-      ASSERT_TRUE(stream->Send(MakeFrame(rebuilt, s, OrbitView(s))).ok());
-    auto acks = stream->Finish();
-    ASSERT_TRUE(acks.ok()) << acks.status();
-    for (const v1::FrameAck& a : *acks) ASSERT_EQ(a.code(), 0) << a.message();
-    auto info = client->GetMap(map);
-    ASSERT_TRUE(info.ok()) << info.status();
-    EXPECT_EQ(info->stats().frames(), sequences.size());
-    const VoxelSet got = Voxels(*client, map);
-    EXPECT_GT(got.size(), 0u);
-    EXPECT_EQ(got.size(), info->stats().voxels());
-    EXPECT_TRUE(got == Voxels(*client, rebuilt))
-        << map << " differs from its " << sequences.size() << " frames rebuilt";
+    testing::ExpectEqualToRebuild(*client, map, sequences, rebuilt_id);
   }
 
   PostgresServer pg_;
@@ -106,7 +84,7 @@ TEST_F(FleetTest, KillingAnOwnerMidStreamLosesNoAcknowledgedFrame) {
   // stream starts with a redirect.
   for (int i = 0; i < kMaps; ++i) {
     auto c = client::MapClient::Connect(addresses_[i]);
-    auto created = c->CreateMap(CreateRequest(absl::StrCat("m", i)));
+    auto created = c->CreateMap(FleetMapRequest(absl::StrCat("m", i)));
     ASSERT_TRUE(created.ok()) << created.status();
   }
   std::mutex mu;
@@ -212,7 +190,7 @@ TEST_F(FleetTest, CliStreamThroughANonOwnerReachesTheOwnerWithEveryFrame) {
   ASSERT_NO_FATAL_FAILURE(StartNodes(2));
   auto to_owner =
       client::MapClient::Connect(addresses_[0], {.timeout = absl::Seconds(20), .max_redirects = 0});
-  ASSERT_TRUE(to_owner->CreateMap(CreateRequest("cli")).ok());
+  ASSERT_TRUE(to_owner->CreateMap(FleetMapRequest("cli")).ok());
   for (int run = 1; run <= 2; ++run) {
     const std::string out = RunCli(absl::StrCat("--server=", addresses_[1], " stream ",
                                                 SKIMAP_YCBV_DIR, " --map=cli --window=4"));
@@ -230,7 +208,7 @@ TEST_F(FleetTest, APausedOwnerWhoseLeaseExpiredCannotCommitAfterResuming) {
   auto to_a =
       client::MapClient::Connect(addresses_[0], {.timeout = absl::Seconds(20), .max_redirects = 0});
   auto to_b = client::MapClient::Connect(addresses_[1], {.timeout = absl::Seconds(20)});
-  ASSERT_TRUE(to_a->CreateMap(CreateRequest("p")).ok());
+  ASSERT_TRUE(to_a->CreateMap(FleetMapRequest("p")).ok());
   const std::string map = "maps/p";
   std::vector<uint64_t> in_map;  // journal order
   for (uint64_t s = 0; s < 5; ++s) {
