@@ -9,6 +9,7 @@ pkgs=(build-essential cmake ninja-build ccache lld pkg-config clang-format
   libturbojpeg0-dev libssl-dev openssl libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
   prometheus-cpp-dev
   clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql
+  postgresql-15-auto-failover pg-auto-failover-cli procps
   chromium python3-matplotlib
   libroscpp-dev librosbag-dev libtf2-ros-dev libmessage-filters-dev libsensor-msgs-dev
   libnav-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev liblz4-dev
@@ -30,6 +31,8 @@ fi
 # docs/ros.md), gencpp for its service types, rosmaster and roslaunch for its tests.
 # postgresql: the PostgreSQL tests start throwaway servers of their own
 # (tests/common/postgres_server.h); the package's default cluster is not used.
+# pg_auto_failover (and procps's pgrep): scripts/pg_cluster.sh's replicated cluster for the
+# database failover tests and bench/pg_failover_bench (docs/operations.md).
 # chromium: the viewer's browser test (tests/web) drives Debian's chromium headless.
 # Node.js for the viewer (web/, built by scripts/build.sh) and the third-party client test (tests/interop/node): Debian's unless a node is
 # already installed; its npm packages exactly as the committed package-lock.json says.

@@ -207,7 +207,13 @@ absl::StatusOr<pg_conn*> PgConnection::OpenHost(size_t i) {
 absl::Status PgConnection::Open() {
   Drop();
   if (!hosts_->several()) {
-    pg_conn* c = PQconnectdb(hosts_->dsn.c_str());
+    // The DSN as it is, with a connect timeout unless it sets one (a server that stopped
+    // answering would hold the connect forever).
+    const bool timeout_set = std::find(hosts_->keywords.begin(), hosts_->keywords.end(),
+                                       "connect_timeout") != hosts_->keywords.end();
+    const char* keys[] = {"dbname", timeout_set ? nullptr : "connect_timeout", nullptr};
+    const char* values[] = {hosts_->dsn.c_str(), "10", nullptr};
+    pg_conn* c = PQconnectdbParams(keys, values, /*expand_dbname=*/1);
     if (c == nullptr) return absl::ResourceExhaustedError("postgres: out of memory");
     if (PQstatus(c) != CONNECTION_OK) {
       absl::Status s =

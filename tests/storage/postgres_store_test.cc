@@ -10,10 +10,12 @@
 #include "absl/strings/str_cat.h"
 #include "storage/postgres_map_store.h"
 #include "tests/common/postgres_server.h"
+#include "tests/storage/lossy_proxy.h"
 
 namespace skimap::storage {
 namespace {
 
+using ::skimap::testing::LossyProxy;
 using ::skimap::testing::PostgresServer;
 
 class PostgresStoreTest : public ::testing::Test {
@@ -185,6 +187,153 @@ TEST_F(PostgresStoreTest, ADatabaseOfANewerSchemaIsRefused) {
 TEST_F(PostgresStoreTest, AnUnreachableServerIsUnavailable) {
   auto s = PostgresMapStore::Open("postgresql://skimap@127.0.0.1:1/x?connect_timeout=2", {});
   EXPECT_EQ(s.status().code(), absl::StatusCode::kUnavailable) << s.status();
+}
+
+// Failover (docs/operations.md, "A replicated store"): calls that lose their connection
+// reconnect and run again; a COMMIT whose answer was lost is read back, never written twice.
+class PostgresFailoverTest : public PostgresStoreTest {
+ protected:
+  void SetUp() override {
+    PostgresStoreTest::SetUp();
+    proxy_ = std::make_unique<LossyProxy>(server_->port());
+    proxied_dsn_ = dsn_;
+    const std::string port = absl::StrCat(":", server_->port(), "/");
+    proxied_dsn_.replace(proxied_dsn_.find(port), port.size(),
+                         absl::StrCat(":", proxy_->port(), "/"));
+  }
+  std::unique_ptr<PostgresMapStore> Through(absl::Duration failover = absl::Seconds(20),
+                                            absl::Duration statement = absl::Seconds(2)) {
+    auto s = PostgresMapStore::Open(proxied_dsn_ + "?connect_timeout=2",
+                                    {.connections = 1,
+                                     .node_id = "node-a",
+                                     .failover_timeout = failover,
+                                     .statement_timeout = statement});
+    EXPECT_TRUE(s.ok()) << s.status();
+    return s.ok() ? *std::move(s) : nullptr;
+  }
+  // The journal of `id`: position and payload of every record.
+  std::vector<std::pair<uint64_t, std::string>> Journal(MapStore& store, const std::string& id) {
+    std::vector<std::pair<uint64_t, std::string>> out;
+    EXPECT_TRUE(store
+                    .ReadJournal(id, 0, SIZE_MAX,
+                                 [&](const JournalRecord& r) {
+                                   out.emplace_back(r.position, r.payload);
+                                   return absl::OkStatus();
+                                 })
+                    .ok());
+    return out;
+  }
+  using Records = std::vector<std::pair<uint64_t, std::string>>;
+
+  std::unique_ptr<LossyProxy> proxy_;
+  std::string proxied_dsn_;
+};
+
+TEST_F(PostgresFailoverTest, ALostCommitAnswerIsReadBackNotWrittenTwice) {
+  auto store = Through();
+  ASSERT_TRUE(store->CreateMap("m", "o").ok());
+  ASSERT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r1"}}), 1u);
+  proxy_->Arm(LossyProxy::kAnswerLost);
+  absl::StatusOr<uint64_t> appended = store->AppendJournal("m", {{JournalRecord::kFrame, "r2"}});
+  ASSERT_TRUE(appended.ok()) << appended.status();
+  EXPECT_EQ(*appended, 2u);
+  EXPECT_EQ(proxy_->losses(), 1);
+  EXPECT_EQ(Journal(*store, "m"), (Records{{1, "r1"}, {2, "r2"}}));
+  const PostgresMapStore::Health h = store->health();
+  EXPECT_EQ(h.unknown_commits, 1u);
+  EXPECT_EQ(h.unknown_committed, 1u);
+  EXPECT_GE(h.reconnects, 1u);
+  EXPECT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r3"}}), 3u);
+}
+
+TEST_F(PostgresFailoverTest, ACommitThatNeverArrivedIsRunAgain) {
+  auto store = Through();
+  ASSERT_TRUE(store->CreateMap("m", "o").ok());
+  ASSERT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r1"}}), 1u);
+  proxy_->Arm(LossyProxy::kCommitLost);
+  absl::StatusOr<uint64_t> appended = store->AppendJournal(
+      "m", {{JournalRecord::kFrame, "r2"}, {JournalRecord::kPoseUpdate, "p2"}});
+  ASSERT_TRUE(appended.ok()) << appended.status();
+  EXPECT_EQ(*appended, 3u);
+  EXPECT_EQ(Journal(*store, "m"), (Records{{1, "r1"}, {2, "r2"}, {3, "p2"}}));
+  EXPECT_EQ(store->health().unknown_commits, 1u);
+  EXPECT_EQ(store->health().unknown_committed, 0u);
+}
+
+// The database stays away past failover_timeout after a lost answer: the append fails
+// (Unavailable, outcome unknown); the client re-sends the same record once it is back, and
+// gets the position it took, not a second copy.
+TEST_F(PostgresFailoverTest, AnUnresolvedAppendIsResolvedByTheMapsNextAppend) {
+  auto store = Through(absl::Seconds(1));
+  ASSERT_TRUE(store->CreateMap("m", "o").ok());
+  ASSERT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r1"}}), 1u);
+  proxy_->SetDown(true);
+  proxy_->Arm(LossyProxy::kAnswerLost);
+  // The armed loss needs a live connection: the pool's one was opened before SetDown.
+  absl::StatusOr<uint64_t> lost = store->AppendJournal("m", {{JournalRecord::kFrame, "r2"}});
+  ASSERT_EQ(lost.status().code(), absl::StatusCode::kUnavailable) << lost.status();
+  EXPECT_NE(lost.status().message().find("answer to the last COMMIT was lost"), std::string::npos)
+      << lost.status();
+  EXPECT_EQ(store->health().unknown_unresolved, 1u);
+  proxy_->SetDown(false);
+  EXPECT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r2"}}), 2u);
+  EXPECT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r3"}}), 3u);
+  EXPECT_EQ(Journal(*store, "m"), (Records{{1, "r1"}, {2, "r2"}, {3, "r3"}}));
+}
+
+// A server that stops answering costs a call its statement deadline and its connection,
+// not a hung thread; once it answers again, so does the store.
+TEST_F(PostgresFailoverTest, AServerThatStopsAnsweringCostsTheStatementDeadline) {
+  auto store = Through(absl::Seconds(1), absl::Milliseconds(500));
+  ASSERT_TRUE(store->CreateMap("m", "o").ok());
+  proxy_->SetStalled(true);
+  const absl::Time start = absl::Now();
+  absl::StatusOr<uint64_t> stalled = store->AppendJournal("m", {{JournalRecord::kFrame, "r1"}});
+  const absl::Duration took = absl::Now() - start;
+  EXPECT_EQ(stalled.status().code(), absl::StatusCode::kUnavailable) << stalled.status();
+  // The deadline, then reconnects (each up to connect_timeout) within the failover budget.
+  EXPECT_LT(took, absl::Seconds(6));
+  proxy_->SetStalled(false);
+  EXPECT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r1"}}), 1u);
+  EXPECT_EQ(Journal(*store, "m"), (Records{{1, "r1"}}));
+}
+
+TEST_F(PostgresFailoverTest, CreateAndDeleteWhoseAnswersWereLostSucceedOnce) {
+  auto store = Through();
+  proxy_->Arm(LossyProxy::kAnswerLost);
+  ASSERT_TRUE(store->CreateMap("m", "o").ok());
+  EXPECT_TRUE(store->HeldLease("m").has_value());
+  proxy_->Arm(LossyProxy::kAnswerLost);
+  ASSERT_TRUE(store->DeleteMap("m").ok());
+  EXPECT_EQ(proxy_->losses(), 2);
+  EXPECT_EQ(store->GetMap("m").status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST_F(PostgresFailoverTest, ARestartedServerCostsNoCall) {
+  auto store = Through();
+  ASSERT_TRUE(store->CreateMap("m", "o").ok());
+  ASSERT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r1"}}), 1u);
+  ASSERT_EQ(server_->Ctl("-w -m immediate restart"), 0);
+  EXPECT_EQ(*store->AppendJournal("m", {{JournalRecord::kFrame, "r2"}}), 2u);
+  EXPECT_TRUE(store->GetMap("m").ok());
+  EXPECT_GE(store->health().reconnects, 1u);
+}
+
+// Several hosts: the first that is a primary able to commit serves (here the first host
+// cannot be reached at all).
+TEST_F(PostgresFailoverTest, AMultiHostDsnFindsTheServerThatAnswers) {
+  std::string dsn = dsn_;
+  dsn.replace(dsn.find("@127.0.0.1:"), 11, "@127.0.0.1:1,127.0.0.1:");
+  auto store = PostgresMapStore::Open(dsn, {.node_id = "node-a"});
+  ASSERT_TRUE(store.ok()) << store.status();
+  ASSERT_TRUE((*store)->CreateMap("m", "o").ok());
+  ASSERT_TRUE((*store)->AppendJournal("m", {{JournalRecord::kFrame, "r1"}}).ok());
+  EXPECT_EQ((*store)->health().server, absl::StrCat("127.0.0.1:", server_->port()));
+  EXPECT_EQ((*store)->health().synchronous, 0);
+  EXPECT_EQ(PgHostCount(dsn), 2);
+  // Required synchronous replication on a lone server: refused, saying what to configure.
+  auto strict = PostgresMapStore::Open(dsn, {.require_synchronous_standby = true});
+  EXPECT_EQ(strict.status().code(), absl::StatusCode::kFailedPrecondition) << strict.status();
 }
 
 }  // namespace
