@@ -47,6 +47,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
+#include "bench/fleet_common.h"
 #include "tests/common/fleet_streamer.h"
 #include "tests/common/postgres_server.h"
 #include "tests/common/skimapd_process.h"
@@ -67,23 +68,6 @@ using testing::SkimapdProcess;
 
 // The tables; stdout is stderr for everything else (the skimapd children print there).
 std::FILE* g_out = stdout;
-
-void Check(bool ok, const std::string& what) {
-  if (ok) return;
-  std::fprintf(stderr, "CHECK FAILED: %s\n", what.c_str());
-  std::exit(1);
-}
-
-v1::Frame Frame(const std::string& map, uint64_t i) {
-  testing::SyntheticCamera camera{640, 480, 525, 525, 319.5, 239.5};
-  return testing::MakeFrame(map, i, testing::OrbitView(i), camera);
-}
-
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, size_t(p * v.size()))];
-}
 
 // CPU seconds (user + system) a process has used so far; 0 if it is gone.
 double CpuSeconds(pid_t pid) {
@@ -114,14 +98,6 @@ double PostgresCpuSeconds(const PostgresServer& pg) {
     if (f.size() > 2 && std::stol(f[1]) == postmaster) total += CpuSeconds(std::stoi(name));
   }
   return total;
-}
-
-v1::CreateMapRequest CreateRequest(const std::string& id) {
-  v1::CreateMapRequest request;
-  request.set_map_id(id);
-  request.mutable_options()->set_resolution(0.05);
-  request.mutable_options()->set_pixel_stride(2);
-  return request;
 }
 
 std::vector<std::unique_ptr<SkimapdProcess>> StartNodes(int n, const std::string& dsn) {
@@ -281,20 +257,9 @@ void Failover(PostgresServer& pg) {
 int main(int argc, char** argv) {
   absl::ParseCommandLine(argc, argv);
   // The tables go to the real stdout; the children's output (inherited fd 1) to stderr.
-  skimap::bench::g_out = fdopen(dup(STDOUT_FILENO), "w");
-  dup2(STDERR_FILENO, STDOUT_FILENO);
+  skimap::bench::g_out = skimap::bench::ReportToStdout();
   skimap::testing::PostgresServer pg;
   skimap::bench::Check(pg.Start().ok(), "PostgreSQL starts");
-  char date[64];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-  double load[3] = {0, 0, 0};
-  if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
-    if (std::fscanf(f, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3) load[0] = -1;
-    std::fclose(f);
-  }
-  std::fprintf(skimap::bench::g_out, "Run of %s, %ld cores, load average %.1f at start.\n\n", date,
-               sysconf(_SC_NPROCESSORS_ONLN), load[0]);
   const std::string parts = absl::GetFlag(FLAGS_parts);
   if (parts.find("ingest") != std::string::npos) skimap::bench::Ingest(pg);
   if (parts.find("failover") != std::string::npos) skimap::bench::Failover(pg);

@@ -13,14 +13,16 @@ jobs=$(nproc)
 bash scripts/build.sh release
 (cd build/release && ctest --output-on-failure -j "$jobs" --timeout 600)
 bash scripts/build.sh asan
-# The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and four
-# compute-bound end-to-end tests that run in the release pass only: the object pipeline's
+# The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and five
+# long end-to-end tests that run in the release pass only: the object pipeline's
 # training tests (300 s under ASan), the recognition suite (its world, trained objects and
 # a recognised scene, takes 400 s under ASan) and the browser test that trains and
 # recognises the same scene, and the ablation script's test (scripts/ablation.py: four
-# recognition evals of that scene). Their code runs under ASan through the object service tests
-# and the unit tests of each part.
-heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances|Ablation[.])'
+# recognition evals of that scene), and the ten database failovers of
+# PgFailoverTest.KillingTheDatabasePrimaryTenTimes... (200 s under ASan). Their code runs
+# under ASan through the object service tests, the unit tests of each part, and for the
+# failovers PostgresFailoverTest.* and PgFailoverTest's paused primary.
+heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances|Ablation[.]|PgFailoverTest[.]KillingTheDatabasePrimary)'
 # Third-party leaks and races (Debian's uninstrumented libraries): tests/lsan.supp and
 # tests/tsan.supp.
 (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \

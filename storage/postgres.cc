@@ -248,6 +248,10 @@ absl::Status PgConnection::Open() {
   failed_here_ = false;
   // Non-blocking: a server that stops reading cannot hold a send past the deadline.
   PQsetnonblocking(c_, 1);
+  // The server's notices (and the FATAL it sends to an idle connection as it shuts down)
+  // would go to stderr, around skimapd's log; errors reach callers as statuses.
+  PQsetNoticeProcessor(
+      c_, [](void*, const char*) {}, nullptr);
   return Setup();
 }
 

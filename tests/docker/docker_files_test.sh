@@ -55,6 +55,16 @@ compose_flags=$(awk '/^    command:/{on=1; next} on && /^    [a-z]/{on=0} on && 
 check "compose.yaml has skimapd flags" grep -q -- '--data_dir' <<<"$compose_flags"
 check "compose.yaml's flags are skimapd's" flags_known "$compose_flags"
 check "the Dockerfile's CMD flags are skimapd's" flags_known "$(grep -E '^CMD' "$dockerfile")"
+# compose-ha.yaml: every `- --flag` line of its skimapd services is skimapd's, none turns
+# authentication off, and the store lists both data nodes.
+compose_ha=$root/docker/compose-ha.yaml
+ha_flags=$(grep -E '^ +- --' "$compose_ha")
+check "compose-ha.yaml has skimapd flags" grep -q -- '--store=postgresql://' <<<"$ha_flags"
+check "compose-ha.yaml's flags are skimapd's" flags_known "$ha_flags"
+check "compose-ha.yaml does not turn authentication off" bash -c "! grep -qE -- '^ *- --insecure' '$compose_ha'"
+check "compose-ha.yaml's store lists both data nodes" grep -q -- 'node1:5432,node2:5432' <<<"$ha_flags"
+check "compose-ha.yaml builds its database image from pg_auto_failover.Dockerfile" \
+  grep -q 'postgresql-15-auto-failover' "$root/docker/pg_auto_failover.Dockerfile"
 check "compose.yaml keeps a data volume" grep -qE -- '- skimap-data:/var/lib/skimap' "$compose"
 check "compose.yaml publishes on the host's loopback only" \
   grep -qE '"127\.0\.0\.1:50051:50051"' "$compose"
