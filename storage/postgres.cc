@@ -32,6 +32,9 @@ absl::Status FromSqlState(const std::string& state, std::string message) {
   const std::string msg = absl::StrCat(message, " (SQLSTATE ", state, ")");
   if (state == "23505") return absl::AlreadyExistsError(msg);
   if (state == "40001" || state == "40P01") return absl::UnavailableError(msg);
+  // lock_not_available: a lock wait past lock_timeout (a session of ours the client dropped
+  // may still hold the lock until the server notices): retry.
+  if (state == "55P03") return absl::UnavailableError(msg);
   if (absl::StartsWith(state, "08") || state == "57P01" || state == "57P02" || state == "57P03") {
     return absl::UnavailableError(msg);  // connection exceptions, server shutting down
   }
@@ -118,11 +121,11 @@ absl::StatusOr<std::unique_ptr<PgConnection>> PgConnection::Connect(const std::s
   char* error = nullptr;
   PQconninfoOption* parsed = PQconninfoParse(dsn.c_str(), &error);
   if (parsed == nullptr) {
-    // libpq's message names the part it could not read; the DSN itself may hold a password.
-    absl::Status s = absl::InvalidArgumentError(
-        absl::StrCat("postgres: connection string: ", error != nullptr ? error : "out of memory"));
+    // libpq's message quotes the part it could not read, which may be the password.
     PQfreemem(error);
-    return s;
+    return absl::InvalidArgumentError(
+        "postgres: the connection string cannot be parsed (a libpq URI "
+        "postgresql://user@host:port,host:port/db?param=value or key=value pairs)");
   }
   bool hostaddr = false;
   for (PQconninfoOption* o = parsed; o->keyword != nullptr; ++o) {
@@ -176,32 +179,39 @@ absl::StatusOr<pg_conn*> PgConnection::OpenHost(size_t i) {
   values.push_back(nullptr);
   pg_conn* c = PQconnectdbParams(keys.data(), values.data(), /*expand_dbname=*/0);
   if (c == nullptr) return absl::ResourceExhaustedError("postgres: out of memory");
-  std::string why;
-  if (PQstatus(c) != CONNECTION_OK) {
-    why = PQerrorMessage(c);
-  } else {
-    // A primary able to commit: not in recovery, and synchronous replication either off or
-    // with a synchronous standby streaming (a row whose state this role may not read
-    // counts: it cannot tell, and the commit's own wait decides).
-    PgResult r(PQexec(c,
-                      "SELECT pg_is_in_recovery(), current_setting('synchronous_standby_names') "
-                      "<> '', (SELECT count(*) FROM pg_stat_replication WHERE sync_state IN "
-                      "('sync', 'quorum') OR sync_state IS NULL)"));
-    if (PQresultStatus(r.r_) != PGRES_TUPLES_OK) {
-      why = PQerrorMessage(c);
-    } else if (std::string(PQgetvalue(r.r_, 0, 0)) == "t") {
-      why = "a standby (in recovery)";
-    } else if (std::string(PQgetvalue(r.r_, 0, 1)) == "t" &&
-               std::string(PQgetvalue(r.r_, 0, 2)) == "0") {
-      why =
-          "a primary configured for synchronous replication without a synchronous standby "
-          "(cut off from its cluster: its commits would wait)";
-    }
-  }
-  if (why.empty()) return c;
+  if (PQstatus(c) == CONNECTION_OK) return c;
+  std::string why = PQerrorMessage(c);
   PQfinish(c);
   while (!why.empty() && why.back() == '\n') why.pop_back();
-  return absl::UnavailableError(absl::StrCat(hosts_->hosts[i], ":", hosts_->ports[i], ": ", why));
+  return absl::UnavailableError(why);
+}
+
+void PgConnection::Install(pg_conn* c) {
+  c_ = c;
+  // Non-blocking: a server that stops reading cannot hold a send past the deadline.
+  PQsetnonblocking(c_, 1);
+  // The server's notices (and the FATAL it sends to an idle connection as it shuts down)
+  // would go to stderr, around skimapd's log; errors reach callers as statuses.
+  PQsetNoticeProcessor(
+      c_, [](void*, const char*) {}, nullptr);
+}
+
+absl::Status PgConnection::CheckPrimary() {
+  // A primary able to commit: not in recovery, and synchronous replication either off or
+  // with a synchronous standby streaming (a row whose state this role may not read
+  // counts: it cannot tell, and the commit's own wait decides).
+  absl::StatusOr<PgResult> r = Exec(
+      "SELECT pg_is_in_recovery(), current_setting('synchronous_standby_names') <> '', "
+      "(SELECT count(*) FROM pg_stat_replication WHERE sync_state IN ('sync', 'quorum') OR "
+      "sync_state IS NULL)");
+  if (!r.ok()) return r.status();
+  if (r->Bool(0, 0)) return absl::UnavailableError("a standby (in recovery)");
+  if (r->Bool(0, 1) && r->Int(0, 2) == 0) {
+    return absl::UnavailableError(
+        "a primary configured for synchronous replication without a synchronous standby (cut "
+        "off from its cluster: its commits would wait)");
+  }
+  return absl::OkStatus();
 }
 
 absl::Status PgConnection::Open() {
@@ -221,7 +231,7 @@ absl::Status PgConnection::Open() {
       PQfinish(c);
       return s;
     }
-    c_ = c;
+    Install(c);
   } else {
     // From the last known primary, or from the next host when that is where this
     // connection just failed.
@@ -232,11 +242,16 @@ absl::Status PgConnection::Open() {
     for (size_t k = 0; k < n && c_ == nullptr; ++k) {
       const size_t i = (first + k) % n;
       absl::StatusOr<pg_conn*> c = OpenHost(i);
-      if (!c.ok()) {
-        why.emplace_back(c.status().message());
+      absl::Status s = c.status();
+      if (c.ok()) {
+        Install(*c);
+        s = CheckPrimary();  // with the statement deadline
+        if (!s.ok()) Drop();
+      }
+      if (!s.ok()) {
+        why.push_back(absl::StrCat(hosts_->hosts[i], ":", hosts_->ports[i], ": ", s.message()));
         continue;
       }
-      c_ = *c;
       host_ = i;
       hosts_->primary_hint.store(i);
     }
@@ -246,20 +261,30 @@ absl::Status PgConnection::Open() {
     }
   }
   failed_here_ = false;
-  // Non-blocking: a server that stops reading cannot hold a send past the deadline.
-  PQsetnonblocking(c_, 1);
-  // The server's notices (and the FATAL it sends to an idle connection as it shuts down)
-  // would go to stderr, around skimapd's log; errors reach callers as statuses.
-  PQsetNoticeProcessor(
-      c_, [](void*, const char*) {}, nullptr);
-  return Setup();
+  if (absl::Status s = Setup(); !s.ok()) {
+    Drop();  // not used without synchronous_commit and the caller's settings
+    return s;
+  }
+  return absl::OkStatus();
 }
 
 absl::Status PgConnection::Setup() {
-  // Durable commits whatever the server's default: an acknowledged frame is on disk.
-  absl::Status s = ExecScript("SET synchronous_commit = on; SET client_min_messages = warning");
+  // Durable commits whatever the server's default: an acknowledged frame is on disk. A lock
+  // wait ends before the client's deadline, and the server checks for a vanished client
+  // once a second: a session this client dropped cannot hold row locks for long.
+  const int64_t lock_ms =
+      std::max<int64_t>(500, absl::ToInt64Milliseconds(options_.statement_timeout) - 500);
+  absl::Status s = ExecScript(absl::StrCat(
+      "SET synchronous_commit = on; SET client_min_messages = warning; SET lock_timeout = ",
+      lock_ms, "; SET client_connection_check_interval = 1000"));
   if (!s.ok() || options_.setup.empty()) return s;
   return ExecScript(options_.setup);
+}
+
+absl::StatusOr<std::unique_ptr<PgConnection>> PgConnection::Another() const {
+  auto conn = std::unique_ptr<PgConnection>(new PgConnection(hosts_, options_));
+  if (absl::Status s = conn->Open(); !s.ok()) return s;
+  return conn;
 }
 
 PgConnection::~PgConnection() { Drop(); }
@@ -284,6 +309,7 @@ absl::Status PgConnection::Reset() {
   if (!s.ok()) {
     return absl::UnavailableError(absl::StrCat("postgres: reconnect failed: ", s.message()));
   }
+  if (options_.reconnects != nullptr) ++*options_.reconnects;
   return s;
 }
 
@@ -337,7 +363,7 @@ absl::StatusOr<PgResult> PgConnection::Await(bool sent, std::string_view sql) {
   for (;;) {
     while (PQisBusy(c_)) {
       if (!wait(false)) return timed_out();
-      if (!PQconsumeInput(c_)) break;  // connection lost: PQgetResult reports it
+      if (!PQconsumeInput(c_)) return Check(nullptr, sql);  // connection lost
     }
     pg_result* r = PQgetResult(c_);
     if (r == nullptr) break;
@@ -382,8 +408,12 @@ absl::Status PgConnection::ExecScript(std::string_view sql) {
 absl::StatusOr<std::unique_ptr<PgPool>> PgPool::Open(const std::string& dsn, int size,
                                                      const PgOptions& options) {
   std::unique_ptr<PgPool> pool(new PgPool());
-  for (int i = 0; i < std::max(1, size); ++i) {
-    absl::StatusOr<std::unique_ptr<PgConnection>> c = PgConnection::Connect(dsn, options);
+  absl::StatusOr<std::unique_ptr<PgConnection>> first = PgConnection::Connect(dsn, options);
+  if (!first.ok()) return first.status();
+  pool->free_.push_back(*std::move(first));
+  // The others share the first's parsed hosts and its knowledge of the primary.
+  for (int i = 1; i < size; ++i) {
+    absl::StatusOr<std::unique_ptr<PgConnection>> c = pool->free_.front()->Another();
     if (!c.ok()) return c.status();
     pool->free_.push_back(*std::move(c));
   }

@@ -23,12 +23,15 @@
 // commit: not in recovery, and either not configured for synchronous replication or with
 // a synchronous standby streaming (an old primary cut off from its standby, whose commits
 // would wait forever, is passed over). Every statement has a client-side deadline: a
-// server that stops answering (SIGSTOP, a partition) costs the connection, not the thread.
+// server that stops answering (SIGSTOP, a partition) costs the connection, not the thread;
+// server side, lock_timeout ends lock waits before it and client_connection_check_interval
+// ends sessions whose client went away.
 //
 // Thread safety: a PgConnection belongs to one thread at a time; PgPool is thread safe.
 #ifndef SKIMAP_STORAGE_POSTGRES_H_
 #define SKIMAP_STORAGE_POSTGRES_H_
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -89,6 +92,8 @@ struct PgOptions {
   std::string setup;  // SET statements, run after every (re)connect
   // Past this a statement's connection is dropped and the statement is Unavailable.
   absl::Duration statement_timeout = absl::Seconds(10);
+  // Counts reconnects that succeeded (Reset, the pool's own included); null: not counted.
+  std::shared_ptr<std::atomic<uint64_t>> reconnects;
 };
 
 class PgConnection {
@@ -115,12 +120,18 @@ class PgConnection {
   absl::Status Reset();
   // "host:port" of the server this connection is on ("" while broken).
   std::string server() const;
+  // A new connection to the same hosts with the same options, sharing this one's
+  // knowledge of which host is primary. Unavailable as Connect.
+  absl::StatusOr<std::unique_ptr<PgConnection>> Another() const;
 
  private:
   struct Hosts;  // the DSN's parsed options and host list (postgres.cc)
   PgConnection(std::shared_ptr<const Hosts> hosts, PgOptions options);
   absl::Status Open();
-  absl::StatusOr<pg_conn*> OpenHost(size_t i);
+  absl::StatusOr<pg_conn*> OpenHost(size_t i);  // connected, not checked
+  void Install(pg_conn* c);
+  // OK for a primary able to commit (see above); Unavailable saying what the server is.
+  absl::Status CheckPrimary();
   absl::Status Check(pg_result* r, std::string_view sql);
   // Sends what `send` queued and waits for every result until the deadline; the last.
   absl::StatusOr<PgResult> Await(bool sent, std::string_view sql);

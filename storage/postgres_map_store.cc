@@ -43,11 +43,13 @@ absl::StatusOr<std::unique_ptr<PostgresMapStore>> PostgresMapStore::Open(const s
       options.node_id.empty()
           ? 60000
           : std::max<int64_t>(1000, absl::ToInt64Milliseconds(options.lease_ttl));
+  auto reconnects = std::make_shared<std::atomic<uint64_t>>(0);
   SK_ASSIGN_OR_RETURN(
       pool,
       PgPool::Open(dsn, options.connections,
                    {.setup = absl::StrCat("SET idle_in_transaction_session_timeout = ", idle_ms),
-                    .statement_timeout = options.statement_timeout}));
+                    .statement_timeout = options.statement_timeout,
+                    .reconnects = reconnects}));
   {
     PgPool::Lease c = pool->Take();
     SK_RETURN_IF_ERROR(MigratePostgres(*c));
@@ -63,17 +65,15 @@ absl::StatusOr<std::unique_ptr<PostgresMapStore>> PostgresMapStore::Open(const s
       }
     }
   }
-  return std::unique_ptr<PostgresMapStore>(new PostgresMapStore(std::move(pool), options));
+  return std::unique_ptr<PostgresMapStore>(
+      new PostgresMapStore(std::move(pool), options, std::move(reconnects)));
 }
 
 PostgresMapStore::Health PostgresMapStore::health() const {
   MutexLock lock(&health_mu_);
-  return health_;
-}
-
-void PostgresMapStore::CountReconnect() {
-  MutexLock lock(&health_mu_);
-  ++health_.reconnects;
+  Health h = health_;
+  h.reconnects = reconnects_->load();
+  return h;
 }
 
 void PostgresMapStore::Count(Outcome o) {
@@ -84,6 +84,9 @@ void PostgresMapStore::Count(Outcome o) {
       break;
     case Outcome::kCommitted:
       ++health_.unknown_committed;
+      break;
+    case Outcome::kNotCommitted:
+      ++health_.unknown_not_committed;
       break;
     case Outcome::kUnresolved:
       ++health_.unknown_unresolved;
@@ -116,15 +119,12 @@ bool PostgresMapStore::IsOutcomeUnknown(const absl::Status& s) {
   return s.GetPayload(kOutcomePayload).has_value();
 }
 
-absl::Status PostgresMapStore::InTransaction(const std::function<absl::Status(PgConnection&)>& fn,
-                                             const Resolver<bool>& resolve) {
-  return InTransaction<bool>(
-             "",
-             [&](PgConnection& c) -> absl::StatusOr<bool> {
-               SK_RETURN_IF_ERROR(fn(c));
-               return true;
-             },
-             resolve)
+absl::Status PostgresMapStore::InTransaction(const std::function<absl::Status(PgConnection&)>& fn) {
+  return InTransaction<bool>("",
+                             [&](PgConnection& c) -> absl::StatusOr<bool> {
+                               SK_RETURN_IF_ERROR(fn(c));
+                               return true;
+                             })
       .status();
 }
 
@@ -157,11 +157,13 @@ absl::Status PostgresMapStore::CheckFence(PgConnection& c, const std::string& id
       "); not written"));
 }
 
-absl::StatusOr<StoredMap> PostgresMapStore::GetMapOn(PgConnection& c, const std::string& id) {
+absl::StatusOr<StoredMap> PostgresMapStore::GetMapOn(PgConnection& c, const std::string& id,
+                                                     bool lock) {
   PgParams p;
   p.Text(id);
-  SK_ASSIGN_OR_RETURN(
-      r, c.Exec(absl::StrCat("SELECT ", kPgMapColumns, " FROM maps WHERE id = $1"), p));
+  SK_ASSIGN_OR_RETURN(r, c.Exec(absl::StrCat("SELECT ", kPgMapColumns, " FROM maps WHERE id = $1",
+                                             lock ? " FOR UPDATE" : ""),
+                                p));
   if (r.rows() == 0) return NoPgMap(id);
   return MapAt(r, 0);
 }
@@ -182,41 +184,45 @@ absl::Status PostgresMapStore::Insert(const std::string& id, const std::string& 
     return absl::InvalidArgumentError("map store: journal base beyond 2^63");
   }
   const Clock::time_point start = Clock::now();
-  absl::Status s = InTransaction(
-      [&](PgConnection& c) -> absl::Status {
-        PgParams p;
-        p.Text(id).Bytes(options).Int(int64_t(last_position)).Bool(importing);
-        absl::StatusOr<PgResult> r = c.Exec(
-            "INSERT INTO maps (id, options, last_position, importing) VALUES ($1, $2, $3, $4)", p);
-        if (absl::IsAlreadyExists(r.status())) {
-          return absl::AlreadyExistsError(absl::StrCat("map store: map ", id, " exists"));
+  bool attempted = false;  // an earlier attempt reached COMMIT (its answer may be lost)
+  absl::Status s = InTransaction([&](PgConnection& c) -> absl::Status {
+    PgParams p;
+    p.Text(id).Bytes(options).Int(int64_t(last_position)).Bool(importing);
+    // ON CONFLICT DO NOTHING: a conflict leaves the transaction usable for the check below.
+    SK_ASSIGN_OR_RETURN(r, c.Exec("INSERT INTO maps (id, options, last_position, importing) "
+                                  "VALUES ($1, $2, $3, $4) ON CONFLICT (id) DO NOTHING",
+                                  p));
+    if (r.affected() == 0) {
+      // The conflict waited for the row's writer: the map as this call's lost attempt would
+      // have made it (with this node's first lease) is that attempt's.
+      if (attempted) {
+        SK_ASSIGN_OR_RETURN(map, GetMapOn(c, id));
+        bool ours = map.options == options && map.importing == importing;
+        if (ours && !options_.node_id.empty()) {
+          PgParams l;
+          l.Text(id);
+          SK_ASSIGN_OR_RETURN(lease, c.Exec("SELECT node, token FROM leases WHERE map = $1", l));
+          ours = lease.rows() == 1 && lease.Bytes(0, 0) == options_.node_id && lease.Int(0, 1) == 1;
         }
-        SK_RETURN_IF_ERROR(r.status());
-        if (options_.node_id.empty()) return absl::OkStatus();
-        // A fleet node creates the map holding its lease.
-        PgParams l;
-        l.Text(id).Text(options_.node_id).Int(absl::ToInt64Milliseconds(options_.lease_ttl));
-        return c
-            .Exec(absl::StrCat("INSERT INTO leases (map, node, token, expires_unix_ms) VALUES ($1, "
-                               "$2, 1, ",
-                               kPgNowMs, " + $3)"),
-                  l)
-            .status();
-      },
-      // A lost answer: the map as this call would have made it (with this node's lease, for a
-      // fleet node) is taken as made by it.
-      [&](PgConnection& c) -> absl::StatusOr<std::optional<bool>> {
-        absl::StatusOr<StoredMap> map = GetMapOn(c, id);
-        if (absl::IsNotFound(map.status())) return std::nullopt;
-        if (!map.ok()) return map.status();
-        if (map->options != options || map->importing != importing) return std::nullopt;
-        if (options_.node_id.empty()) return true;
-        PgParams p;
-        p.Text(id);
-        SK_ASSIGN_OR_RETURN(r, c.Exec("SELECT node, token FROM leases WHERE map = $1", p));
-        if (r.rows() == 1 && r.Bytes(0, 0) == options_.node_id && r.Int(0, 1) == 1) return true;
-        return std::nullopt;
-      });
+        if (ours) return absl::OkStatus();
+      }
+      return absl::AlreadyExistsError(absl::StrCat("map store: map ", id, " exists"));
+    }
+    if (!options_.node_id.empty()) {
+      // A fleet node creates the map holding its lease.
+      PgParams l;
+      l.Text(id).Text(options_.node_id).Int(absl::ToInt64Milliseconds(options_.lease_ttl));
+      SK_RETURN_IF_ERROR(
+          c.Exec(absl::StrCat("INSERT INTO leases (map, node, token, expires_unix_ms) VALUES ($1, "
+                              "$2, 1, ",
+                              kPgNowMs, " + $3)"),
+                 l)
+              .status());
+    }
+    attempted = true;
+    return absl::OkStatus();
+  });
+  if (s.ok()) ForgetPending(id);
   if (s.ok() && !options_.node_id.empty())
     SetFence(id, 1, start + absl::ToChronoNanoseconds(options_.lease_ttl));
   return s;
@@ -233,24 +239,25 @@ absl::Status PostgresMapStore::FinishImport(const std::string& id) {
 }
 
 absl::Status PostgresMapStore::DeleteMap(const std::string& id) {
-  absl::Status s = InTransaction(
-      [&](PgConnection& c) -> absl::Status {
-        SK_RETURN_IF_ERROR(GetMapOn(c, id).status());
-        SK_RETURN_IF_ERROR(CheckFence(c, id));
-        PgParams p;
-        p.Text(id);
-        // The foreign keys cascade to the journal, the chunks and the lease.
-        SK_ASSIGN_OR_RETURN(r, c.Exec("DELETE FROM maps WHERE id = $1", p));
-        return r.affected() == 0 ? NoPgMap(id) : absl::OkStatus();
-      },
-      // A lost answer: a map no longer there was deleted by this call.
-      [&](PgConnection& c) -> absl::StatusOr<std::optional<bool>> {
-        absl::StatusOr<StoredMap> map = GetMapOn(c, id);
-        if (absl::IsNotFound(map.status())) return true;
-        if (!map.ok()) return map.status();
-        return std::nullopt;
-      });
-  if (s.ok()) DropFence(id);
+  bool attempted = false;  // an earlier attempt reached COMMIT (its answer may be lost)
+  absl::Status s = InTransaction([&](PgConnection& c) -> absl::Status {
+    // FOR UPDATE waits for a lost attempt still deleting the row: gone after it, it did.
+    absl::StatusOr<StoredMap> map = GetMapOn(c, id, /*lock=*/true);
+    if (attempted && absl::IsNotFound(map.status())) return absl::OkStatus();
+    SK_RETURN_IF_ERROR(map.status());
+    SK_RETURN_IF_ERROR(CheckFence(c, id));
+    PgParams p;
+    p.Text(id);
+    // The foreign keys cascade to the journal, the chunks and the lease.
+    SK_ASSIGN_OR_RETURN(r, c.Exec("DELETE FROM maps WHERE id = $1", p));
+    if (r.affected() == 0) return NoPgMap(id);
+    attempted = true;
+    return absl::OkStatus();
+  });
+  if (s.ok()) {
+    DropFence(id);
+    ForgetPending(id);
+  }
   return s;
 }
 
@@ -269,27 +276,31 @@ absl::StatusOr<std::vector<StoredMap>> PostgresMapStore::ListMaps() {
       });
 }
 
-absl::StatusOr<std::optional<uint64_t>> PostgresMapStore::Resolve(PgConnection& c,
-                                                                  const std::string& id,
-                                                                  const PendingAppend& append) {
-  // The positions the lost transaction numbered its records with: they hold exactly its
-  // records if it committed (the map's row lock orders appends; positions are never reused),
-  // and nothing or other records if it did not.
+absl::StatusOr<bool> PostgresMapStore::Committed(PgConnection& c, const std::string& id,
+                                                 const PendingAppend& append) {
+  // The positions the transaction numbered its records with hold exactly its records if it
+  // committed (the row lock orders appends; positions are never reused), and nothing or
+  // other records if it did not.
   const uint64_t first = append.last - append.records.size() + 1;
   PgParams p;
   p.Text(id).Int(int64_t(first)).Int(int64_t(append.last));
   SK_ASSIGN_OR_RETURN(r, c.Exec("SELECT position, kind, payload FROM journal WHERE map = $1 AND "
                                 "position BETWEEN $2 AND $3 ORDER BY position",
                                 p));
-  if (size_t(r.rows()) != append.records.size()) return std::nullopt;
+  if (size_t(r.rows()) != append.records.size()) return false;
   for (int i = 0; i < r.rows(); ++i) {
     const JournalRecord& mine = append.records[i];
     if (uint64_t(r.Int(i, 0)) != first + i || r.Int(i, 1) != mine.kind ||
         r.Bytes(i, 2) != mine.payload) {
-      return std::nullopt;
+      return false;
     }
   }
-  return append.last;
+  return true;
+}
+
+void PostgresMapStore::ForgetPending(const std::string& id) {
+  MutexLock lock(&health_mu_);
+  unresolved_.erase(id);
 }
 
 absl::StatusOr<uint64_t> PostgresMapStore::AppendJournal(
@@ -300,71 +311,124 @@ absl::StatusOr<uint64_t> PostgresMapStore::AppendJournal(
       return absl::InvalidArgumentError("map store: unknown journal record kind");
     }
   }
-  std::vector<PendingAppend> earlier;
-  {
-    MutexLock lock(&health_mu_);
-    auto it = unresolved_.find(id);
-    if (it != unresolved_.end()) earlier = it->second;
-  }
-  PendingAppend attempt{0, records};  // `last` set by each attempt before its COMMIT
+  auto same = [&](const PendingAppend& u) {
+    return std::equal(records.begin(), records.end(), u.records.begin(), u.records.end(),
+                      [](const JournalRecord& a, const JournalRecord& b) {
+                        return a.kind == b.kind && a.payload == b.payload;
+                      });
+  };
+  const bool strict = options_.require_synchronous_standby;
+  PendingAppend attempt{0, records};  // `last`: set by an attempt that reached COMMIT
+  bool in_doubt = false;              // attempt's COMMIT may have happened unheard
   absl::StatusOr<uint64_t> appended = InTransaction<uint64_t>(
       "",
       [&](PgConnection& c) -> absl::StatusOr<uint64_t> {
-        // Earlier appends of this map whose outcome stayed unknown: a record equal to one of
-        // them that did commit is that record (answered, not written twice).
-        for (const PendingAppend& u : earlier) {
-          SK_ASSIGN_OR_RETURN(was, Resolve(c, id, u));
-          if (was.has_value() && u.records.size() == records.size() &&
-              std::equal(records.begin(), records.end(), u.records.begin(),
-                         [](const JournalRecord& a, const JournalRecord& b) {
-                           return a.kind == b.kind && a.payload == b.payload;
-                         })) {
-            return *was;
-          }
-        }
         PgParams p;
-        p.Text(id).Int(int64_t(records.size()));
-        // Locks the map's row: appends to one map are numbered one after the other.
+        p.Text(id);
+        // Locks the map's row: appends to one map are numbered one after the other, and a
+        // transaction of ours still writing it on this server (a COMMIT whose answer was
+        // lost) has ended, so what Committed reads below is final.
         SK_ASSIGN_OR_RETURN(
-            r, c.Exec("UPDATE maps SET last_position = last_position + $2 WHERE id = $1 "
-                      "RETURNING last_position, current_setting('synchronous_standby_names') <> ''",
-                      p));
-        if (r.rows() == 0) return NoPgMap(id);
-        SK_RETURN_IF_ERROR(CheckFence(c, id));
-        const bool synchronous = r.Bool(0, 1);
+            row, c.Exec("SELECT current_setting('synchronous_standby_names') <> '' FROM maps "
+                        "WHERE id = $1 FOR UPDATE",
+                        p));
+        if (row.rows() == 0) return NoPgMap(id);
+        const bool synchronous = row.Bool(0, 0);
         {
           MutexLock lock(&health_mu_);
           health_.synchronous = synchronous ? 1 : 0;
-          health_.server = c.server();
-          if (!synchronous && options_.require_synchronous_standby) ++health_.standby_waits;
+          if (!synchronous && strict) ++health_.standby_waits;
         }
-        if (!synchronous && options_.require_synchronous_standby) return NoSynchronousStandby();
+        if (!synchronous && strict) return NoSynchronousStandby();
+        // Settles this call's attempt and the map's earlier unsettled appends: a committed
+        // one with these records is their append (made durable by this transaction's no-op
+        // write when a standby is required); one that did not commit is dropped.
+        std::vector<PendingAppend> pending;
+        {
+          MutexLock lock(&health_mu_);
+          if (auto it = unresolved_.find(id); it != unresolved_.end()) pending = it->second;
+        }
+        const size_t mine = in_doubt ? pending.size() : SIZE_MAX;
+        if (in_doubt) pending.push_back(attempt);
+        std::optional<uint64_t> found;
+        for (size_t i = 0; i < pending.size(); ++i) {
+          const PendingAppend& u = pending[i];
+          SK_ASSIGN_OR_RETURN(committed, Committed(c, id, u));
+          if (i == mine) Count(committed ? Outcome::kCommitted : Outcome::kNotCommitted);
+          if (committed && same(u)) found = u.last;
+          MutexLock lock(&health_mu_);
+          auto it = unresolved_.find(id);
+          if (it == unresolved_.end()) continue;
+          std::vector<PendingAppend>& kept = it->second;
+          // Kept: committed records of another append (a re-send may still come).
+          if (!committed || same(u)) {
+            kept.erase(std::remove_if(kept.begin(), kept.end(),
+                                      [&](const PendingAppend& k) {
+                                        return k.last == u.last &&
+                                               k.records.size() == u.records.size();
+                                      }),
+                       kept.end());
+          }
+          if (kept.empty()) unresolved_.erase(it);
+        }
+        in_doubt = false;
+        if (found.has_value()) {
+          if (strict) {  // a write, so that the COMMIT waits for the standby
+            SK_RETURN_IF_ERROR(
+                c.Exec("UPDATE maps SET last_position = last_position WHERE id = $1", p).status());
+          }
+          attempt.last = *found;
+          in_doubt = true;  // settled again if this COMMIT's answer is lost
+          return *found;
+        }
+        PgParams q;
+        q.Text(id).Int(int64_t(records.size()));
+        SK_ASSIGN_OR_RETURN(r, c.Exec("UPDATE maps SET last_position = last_position + $2 WHERE "
+                                      "id = $1 RETURNING last_position",
+                                      q));
+        SK_RETURN_IF_ERROR(CheckFence(c, id));
         const uint64_t last = uint64_t(r.Int(0, 0));
         uint64_t position = last - records.size();
         for (const JournalRecord& record : records) {
-          PgParams q;
-          q.Text(id).Int(int64_t(++position)).Int(record.kind).Bytes(record.payload);
+          PgParams w;
+          w.Text(id).Int(int64_t(++position)).Int(record.kind).Bytes(record.payload);
           SK_RETURN_IF_ERROR(
               c.Exec("INSERT INTO journal (map, position, kind, payload) VALUES ($1, $2, $3, $4)",
-                     q)
+                     w)
                   .status());
         }
         attempt.last = last;
-        // Durable once the COMMIT returns (synchronous_commit = on; with a synchronous
-        // standby, on the standby too).
-        return last;
+        in_doubt = true;  // from here its COMMIT may happen without an answer reaching us
+        {
+          MutexLock lock(&health_mu_);
+          health_.server = c.server();
+        }
+        return last;  // durable once the COMMIT returns (synchronous_commit = on)
       },
-      [&](PgConnection& c) { return Resolve(c, id, attempt); });
+      // Clearing synchronous_standby_names releases the COMMITs waiting for a standby: read
+      // it again; found cleared, a rerun settles the records and makes them durable.
+      [&](PgConnection& c) -> absl::Status {
+        if (!strict) return absl::OkStatus();
+        absl::StatusOr<PgResult> r =
+            c.Exec("SELECT current_setting('synchronous_standby_names') <> ''");
+        if (!r.ok()) return r.status();
+        if (r->Bool(0, 0)) return absl::OkStatus();
+        MutexLock lock(&health_mu_);
+        health_.synchronous = 0;
+        ++health_.standby_waits;
+        return NoSynchronousStandby();
+      });
+  // An error other than a lost connection (or a standby missing after COMMIT) settles it:
+  // that attempt did not commit.
+  if (appended.ok() || !in_doubt || !IsConnectionLost(appended.status())) return appended;
+  // Not settled within the budget: the map's next append settles it.
+  Count(Outcome::kUnresolved);
   MutexLock lock(&health_mu_);
-  if (appended.ok()) {
-    unresolved_.erase(id);  // resolved by this append's transaction (or never committed)
-  } else if (IsOutcomeUnknown(appended.status())) {
-    std::vector<PendingAppend>& kept = unresolved_[id];
-    kept.push_back(std::move(attempt));
-    constexpr size_t kKept = 16;
-    if (kept.size() > kKept) kept.erase(kept.begin());
-  }
-  return appended;
+  std::vector<PendingAppend>& kept = unresolved_[id];
+  kept.push_back(std::move(attempt));
+  constexpr size_t kKept = 16;
+  if (kept.size() > kKept) kept.erase(kept.begin());
+  return OutcomeUnknown(appended.status());
 }
 
 absl::Status PostgresMapStore::ReadJournal(

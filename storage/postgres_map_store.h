@@ -23,18 +23,29 @@
 //
 // On a replicated cluster (a DSN listing the hosts; postgres.h) a call that loses its
 // connection reconnects, to whichever host is primary now, with backoff for up to
-// failover_timeout, and runs its transaction again. A COMMIT whose answer was lost has an
-// unknown outcome; it is resolved by reading back what the transaction wrote:
-// AppendJournal knows the positions its records took (the map's row numbers them before
-// the COMMIT) and compares the records stored there with its own, byte for byte; CreateMap
-// and DeleteMap look for the map; the other writes are idempotent and run again. An
-// append still unresolved when the budget runs out is kept, and the map's next append
-// resolves it first: a re-sent record equal to one that did commit answers its position
-// and is not written twice.
+// failover_timeout (its pooled connection given back while it waits), and runs its
+// transaction again. A COMMIT whose answer was lost has an unknown outcome; the rerun
+// settles it after taking the lock the lost transaction held, so that transaction has
+// ended on this server and what it reads is final:
+// - AppendJournal locks the map's row (FOR UPDATE), then compares the records stored at
+//   the positions the lost attempt numbered (the row lock orders appends; positions are
+//   never reused) with its own, byte for byte: equal, it committed and its positions are
+//   the answer; not, it did not and the append runs again.
+// - CreateMap / BeginImport: a unique conflict with the map this call's lost attempt made
+//   (same options, this node's first lease) is success; DeleteMap: a map gone after its
+//   lost attempt is success (FOR UPDATE waits for that attempt).
+// - The other writes are idempotent and run again.
+// An append still unsettled when the budget runs out is kept per map; the map's next
+// append settles it first, and a re-sent record equal to one that did commit is answered
+// its position, not written twice.
 //
-// With require_synchronous_standby an append commits only on a primary that replicates
-// synchronously (synchronous_standby_names set; its COMMIT returns once a standby has the
-// record), and waits, within failover_timeout, while it does not.
+// With require_synchronous_standby an append is acknowledged only once a synchronous
+// standby has it: it is written only while the primary's synchronous_standby_names is set
+// (read in the same transaction), and the setting is read again after its COMMIT, since
+// clearing it (pg_auto_failover does when a standby fails) releases waiting COMMITs
+// without a standby. Found cleared, the append waits, within failover_timeout, and settles
+// as above: a committed record is then made durable by a write of its own (a no-op update
+// of the map's row, whose COMMIT waits for the standby, which receives WAL in order).
 //
 // Thread safety: thread safe (a pool of connections).
 #ifndef SKIMAP_STORAGE_POSTGRES_MAP_STORE_H_
@@ -76,13 +87,14 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
   };
   // What the store has seen of its database (skimapd's /metrics).
   struct Health {
-    uint64_t reconnects = 0;          // connections re-established after a loss
-    uint64_t unknown_commits = 0;     // COMMITs of non-idempotent writes whose answer was lost
-    uint64_t unknown_committed = 0;   // ... that had committed (read back)
-    uint64_t unknown_unresolved = 0;  // ... that could not be read back within the budget
-    uint64_t standby_waits = 0;       // appends held back for want of a synchronous standby
-    int synchronous = -1;             // the primary replicates synchronously: 1, 0, -1 unknown
-    std::string server;               // host:port of the last successful write
+    uint64_t reconnects = 0;             // connections re-established after a loss
+    uint64_t unknown_commits = 0;        // COMMITs of non-idempotent writes whose answer was lost
+    uint64_t unknown_committed = 0;      // ... that had committed (read back)
+    uint64_t unknown_not_committed = 0;  // ... that had not
+    uint64_t unknown_unresolved = 0;     // ... that could not be settled within the budget
+    uint64_t standby_waits = 0;          // appends held back for want of a synchronous standby
+    int synchronous = -1;                // the primary replicates synchronously: 1, 0, -1 unknown
+    std::string server;                  // host:port of the last successful write
   };
   Health health() const;
   // Connects to `dsn` (libpq connection string or postgres:// URI) and migrates the
@@ -126,46 +138,39 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
 
  private:
   using Clock = std::chrono::steady_clock;
-  PostgresMapStore(std::unique_ptr<PgPool> pool, const Options& options)
-      : options_(options), pool_(std::move(pool)) {}
-  // After a COMMIT whose answer was lost: whether it happened (its result) or not
-  // (nullopt: run the transaction again), read on a new connection.
+  PostgresMapStore(std::unique_ptr<PgPool> pool, const Options& options,
+                   std::shared_ptr<std::atomic<uint64_t>> reconnects)
+      : options_(options), pool_(std::move(pool)), reconnects_(std::move(reconnects)) {}
+  // Runs fn in one transaction on a pooled connection and commits if fn succeeds, then
+  // runs after_commit (if any) on the same connection; again from the start (up to 5
+  // times) when it meets a serialization failure or a deadlock, and after a reconnect,
+  // with backoff within failover_timeout, when the connection is lost, a lock wait times
+  // out, or fn or after_commit answer NoSynchronousStandby(). A COMMIT whose answer was
+  // lost is counted; fn's next run must settle it (see above).
   template <class T>
-  using Resolver = std::function<absl::StatusOr<std::optional<T>>(PgConnection&)>;
-  // Runs fn in one transaction on a pooled connection and commits if fn succeeds; again
-  // from the start (up to 5 times) when it meets a serialization failure or a deadlock,
-  // and after a reconnect, with backoff within failover_timeout, when the connection is
-  // lost or the primary lacks a wanted synchronous standby (fn answers
-  // NoSynchronousStandby()). A lost COMMIT answer goes to `resolve` (none: run again).
-  template <class T>
-  absl::StatusOr<T> InTransaction(std::string_view mode,
-                                  const std::function<absl::StatusOr<T>(PgConnection&)>& fn,
-                                  const Resolver<T>& resolve = nullptr);
-  absl::Status InTransaction(const std::function<absl::Status(PgConnection&)>& fn,
-                             const Resolver<bool>& resolve = nullptr);
+  absl::StatusOr<T> InTransaction(
+      std::string_view mode, const std::function<absl::StatusOr<T>(PgConnection&)>& fn,
+      const std::function<absl::Status(PgConnection&)>& after_commit = nullptr);
+  absl::Status InTransaction(const std::function<absl::Status(PgConnection&)>& fn);
   // Runs fn (reads, no transaction) on a pooled connection, again after a reconnect as
   // InTransaction does.
   template <class T>
   absl::StatusOr<T> WithConnection(const std::function<absl::StatusOr<T>(PgConnection&)>& fn);
   static absl::Status NoSynchronousStandby();
-  // `s` marked (a payload) as the error of a call whose last COMMIT's answer was lost.
+  // `s` marked (a payload) as the error of an append whose last COMMIT's answer was lost
+  // and could not be settled.
   static absl::Status OutcomeUnknown(absl::Status s);
   static bool IsOutcomeUnknown(const absl::Status& s);
-  // OutcomeUnknown(s), counted when the write has a resolver.
-  absl::Status Unresolved(absl::Status s, bool counted) {
-    if (counted) Count(Outcome::kUnresolved);
-    return OutcomeUnknown(std::move(s));
-  }
   static bool IsNoSynchronousStandby(const absl::Status& s);
   // Sleeps the next backoff step; false (no sleep) once `deadline` would pass.
   static bool Backoff(absl::Time deadline, absl::Duration* step);
-  void CountReconnect();
-  enum class Outcome { kLost, kCommitted, kUnresolved };
+  enum class Outcome { kLost, kCommitted, kNotCommitted, kUnresolved };
   void Count(Outcome o);
   // Fleet nodes: FailedPrecondition unless the lease of `id` names this node with the
   // token it holds (the row is locked FOR SHARE until the transaction ends). OK otherwise.
   absl::Status CheckFence(PgConnection& c, const std::string& id);
-  absl::StatusOr<StoredMap> GetMapOn(PgConnection& c, const std::string& id);
+  // The map's row; `lock`: FOR UPDATE (waits for a transaction writing it).
+  absl::StatusOr<StoredMap> GetMapOn(PgConnection& c, const std::string& id, bool lock = false);
   absl::Status Insert(const std::string& id, const std::string& options, uint64_t last_position,
                       bool importing);
   // Pages of the latest snapshot in key order from `after`; returns the covered position.
@@ -175,19 +180,26 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
   void SetFence(const std::string& id, int64_t token, Clock::time_point valid_until);
   void DropFence(const std::string& id);
 
-  // Appends whose outcome stayed unknown past failover_timeout, per map (positions and
-  // records), resolved by the map's next append.
+  // An append whose COMMIT's outcome is not known (answer lost, or committed before a
+  // synchronous standby was confirmed): its last position and its records.
   struct PendingAppend {
     uint64_t last = 0;
     std::vector<JournalRecord> records;
   };
-  absl::StatusOr<std::optional<uint64_t>> Resolve(PgConnection& c, const std::string& id,
-                                                  const PendingAppend& append);
+  // Whether `append` committed: its positions hold exactly its records. REQUIRES: the
+  // map's row is locked in c's transaction (so no transaction of ours is still writing).
+  absl::StatusOr<bool> Committed(PgConnection& c, const std::string& id,
+                                 const PendingAppend& append);
+  // Forgets the unsettled appends of map `id` (deleted or created anew).
+  void ForgetPending(const std::string& id);
 
   const Options options_;
   std::unique_ptr<PgPool> pool_;
+  const std::shared_ptr<std::atomic<uint64_t>> reconnects_;  // the pool's connections'
   mutable Mutex health_mu_;
   Health health_ ABSL_GUARDED_BY(health_mu_);
+  // Appends left unsettled when their call gave up, per map, settled by the map's next
+  // append; the committed ones stay until a re-send matches them (at most 16 per map).
   std::map<std::string, std::vector<PendingAppend>> unresolved_ ABSL_GUARDED_BY(health_mu_);
   Mutex fence_mu_;
   std::map<std::string, Held> fences_ ABSL_GUARDED_BY(fence_mu_);  // leases this node holds
@@ -196,45 +208,35 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
 template <class T>
 absl::StatusOr<T> PostgresMapStore::InTransaction(
     std::string_view mode, const std::function<absl::StatusOr<T>(PgConnection&)>& fn,
-    const Resolver<T>& resolve) {
+    const std::function<absl::Status(PgConnection&)>& after_commit) {
   constexpr int kAttempts = 5;  // serialization failures and deadlocks
   const absl::Time deadline = absl::Now() + options_.failover_timeout;
   absl::Duration step = absl::Milliseconds(50);
-  PgPool::Lease c = pool_->Take();
+  std::optional<PgPool::Lease> c;
   absl::StatusOr<T> result = absl::UnknownError("not run");
-  bool unknown = false;  // the last COMMIT's answer was lost
   for (int serialization = 0;;) {
-    if (!c->healthy()) {
-      if (absl::Status s = c->Reset(); !s.ok()) {
-        if (!Backoff(deadline, &step)) return unknown ? Unresolved(s, resolve != nullptr) : s;
+    if (!c.has_value()) c.emplace(pool_->Take());
+    PgConnection& conn = **c;
+    if (!conn.healthy()) {
+      if (absl::Status s = conn.Reset(); !s.ok()) {
+        c.reset();  // not held while waiting
+        if (!Backoff(deadline, &step)) return s;
         continue;
       }
-      CountReconnect();
     }
-    if (unknown && resolve != nullptr) {
-      absl::StatusOr<std::optional<T>> was = resolve(*c);
-      if (!was.ok()) {
-        if (IsConnectionLost(was.status()) && Backoff(deadline, &step)) continue;
-        return Unresolved(was.status(), true);
-      }
-      if (was->has_value()) {
-        Count(Outcome::kCommitted);
-        return **std::move(was);
-      }
-    }
-    unknown = false;
     {
-      PgTransaction tx(*c, mode);
+      PgTransaction tx(conn, mode);
       if (!tx.status().ok()) {
         result = tx.status();
       } else {
-        result = fn(*c);
+        result = fn(conn);
         if (result.ok()) {
           absl::Status committed = tx.Commit();
           if (!committed.ok()) {
             result = committed;
-            unknown = IsConnectionLost(committed);
-            if (unknown && resolve != nullptr) Count(Outcome::kLost);
+            if (IsConnectionLost(committed)) Count(Outcome::kLost);
+          } else if (after_commit != nullptr) {
+            if (absl::Status s = after_commit(conn); !s.ok()) result = s;
           }
         }
       }
@@ -244,10 +246,9 @@ absl::StatusOr<T> PostgresMapStore::InTransaction(
       if (++serialization < kAttempts) continue;
       return result;
     }
-    const bool lost = IsConnectionLost(result.status());
-    if (!lost || !Backoff(deadline, &step)) {
-      return unknown ? absl::StatusOr<T>(Unresolved(result.status(), resolve != nullptr)) : result;
-    }
+    if (!IsConnectionLost(result.status())) return result;
+    c.reset();  // not held while waiting
+    if (!Backoff(deadline, &step)) return result;
   }
 }
 
@@ -256,16 +257,15 @@ absl::StatusOr<T> PostgresMapStore::WithConnection(
     const std::function<absl::StatusOr<T>(PgConnection&)>& fn) {
   const absl::Time deadline = absl::Now() + options_.failover_timeout;
   absl::Duration step = absl::Milliseconds(50);
-  PgPool::Lease c = pool_->Take();
   for (;;) {
-    if (!c->healthy()) {
-      if (absl::Status s = c->Reset(); !s.ok()) {
-        if (!Backoff(deadline, &step)) return s;
-        continue;
+    absl::StatusOr<T> result = absl::UnknownError("not run");
+    {
+      PgPool::Lease c = pool_->Take();
+      if (!c->healthy()) {
+        if (absl::Status s = c->Reset(); !s.ok()) result = s;
       }
-      CountReconnect();
+      if (c->healthy()) result = fn(*c);
     }
-    absl::StatusOr<T> result = fn(*c);
     if (result.ok() || !IsConnectionLost(result.status()) || !Backoff(deadline, &step)) {
       return result;
     }

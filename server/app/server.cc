@@ -95,6 +95,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Options& options) {
       return Metrics::StoreGauges{.reconnects = h.reconnects,
                                   .unknown_commits = h.unknown_commits,
                                   .unknown_committed = h.unknown_committed,
+                                  .unknown_not_committed = h.unknown_not_committed,
                                   .unknown_unresolved = h.unknown_unresolved,
                                   .standby_waits = h.standby_waits,
                                   .synchronous = h.synchronous};

@@ -319,6 +319,49 @@ TEST_F(PostgresFailoverTest, ARestartedServerCostsNoCall) {
   EXPECT_GE(store->health().reconnects, 1u);
 }
 
+// pg_auto_failover clears synchronous_standby_names when the standby fails, which releases
+// the COMMITs waiting for it: such a commit is on the primary alone and must not be
+// acknowledged by a store that requires a standby. (A standby named here that never
+// connects stands for one that failed.)
+TEST_F(PostgresFailoverTest, ACommitReleasedWithoutItsStandbyIsNotAcknowledged) {
+  ASSERT_TRUE(Through()->CreateMap("m", "o").ok());
+  auto admin = PgConnection::Connect(dsn_);
+  ASSERT_TRUE(admin.ok()) << admin.status();
+  auto set_standby = [&](const std::string& names) {
+    ASSERT_TRUE(
+        (*admin)->ExecScript("ALTER SYSTEM SET synchronous_standby_names = '" + names + "'").ok());
+    ASSERT_TRUE((*admin)->ExecScript("SELECT pg_reload_conf()").ok());
+    for (int i = 0; i < 100; ++i) {  // the reload is asynchronous
+      auto c = PgConnection::Connect(dsn_);
+      auto r = (*c)->Exec("SELECT current_setting('synchronous_standby_names')");
+      if (r.ok() && r->Bytes(0, 0) == names) return;
+      absl::SleepFor(absl::Milliseconds(50));
+    }
+    FAIL() << "the setting did not reach new sessions";
+  };
+  ASSERT_NO_FATAL_FAILURE(set_standby("standby_that_failed"));
+  auto strict = PostgresMapStore::Open(dsn_, {.connections = 1,
+                                              .node_id = "",
+                                              .failover_timeout = absl::Seconds(2),
+                                              .require_synchronous_standby = true});
+  ASSERT_TRUE(strict.ok()) << strict.status();
+  absl::StatusOr<uint64_t> appended;
+  std::thread append([&] {
+    appended = (*strict)->AppendJournal("m", {{JournalRecord::kFrame, "r1"}});
+  });
+  absl::SleepFor(absl::Milliseconds(500));   // its COMMIT waits for the standby
+  ASSERT_NO_FATAL_FAILURE(set_standby(""));  // ... and is released without it
+  append.join();
+  (void)(*admin)->ExecScript("ALTER SYSTEM RESET synchronous_standby_names");
+  (void)(*admin)->ExecScript("SELECT pg_reload_conf()");
+  EXPECT_EQ(appended.status().code(), absl::StatusCode::kUnavailable) << appended.status();
+  EXPECT_GE((*strict)->health().standby_waits, 1u);
+  EXPECT_EQ((*strict)->health().synchronous, 0);
+  // The record is on the primary (a re-send, once a standby is back, is answered its
+  // position), but it was not acknowledged.
+  EXPECT_EQ(Journal(*strict.value(), "m"), (Records{{1, "r1"}}));
+}
+
 // Several hosts: the first that is a primary able to commit serves (here the first host
 // cannot be reached at all).
 TEST_F(PostgresFailoverTest, AMultiHostDsnFindsTheServerThatAnswers) {

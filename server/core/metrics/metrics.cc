@@ -194,9 +194,7 @@ void Metrics::ScrapeStore() {
   add(in_->store_reconnects, now.reconnects, seen.reconnects);
   add(in_->store_committed, now.unknown_committed, seen.unknown_committed);
   add(in_->store_unresolved, now.unknown_unresolved, seen.unknown_unresolved);
-  const uint64_t not_now = now.unknown_commits - now.unknown_committed - now.unknown_unresolved;
-  const uint64_t not_seen = seen.unknown_commits - seen.unknown_committed - seen.unknown_unresolved;
-  add(in_->store_not_committed, not_now, not_seen);
+  add(in_->store_not_committed, now.unknown_not_committed, seen.unknown_not_committed);
   add(in_->store_waits, now.standby_waits, seen.standby_waits);
   in_->store_synchronous->Set(now.synchronous);
   seen = now;

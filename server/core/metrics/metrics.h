@@ -62,6 +62,7 @@ class Metrics {
     uint64_t reconnects = 0;
     uint64_t unknown_commits = 0;
     uint64_t unknown_committed = 0;
+    uint64_t unknown_not_committed = 0;
     uint64_t unknown_unresolved = 0;
     uint64_t standby_waits = 0;
     int synchronous = -1;
