@@ -14,7 +14,6 @@
 #include "absl/strings/strip.h"
 
 namespace skimap::dataset {
-namespace {
 
 // A PLY file's header must be whole and its counts possible before Assimp reads it:
 // Assimp 5.2 loops forever on a header that ends inside an element line ("element vertex"
@@ -62,8 +61,6 @@ absl::Status CheckPlyHeader(const std::string& path) {
   return absl::InvalidArgumentError(
       absl::StrCat(path, ": PLY header without a format line or end_header (within 64 KiB)"));
 }
-
-}  // namespace
 
 absl::StatusOr<std::vector<Eigen::Vector3d>> LoadModelPoints(const std::string& path, double scale,
                                                              int max_points) {

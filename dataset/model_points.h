@@ -25,6 +25,12 @@ absl::StatusOr<std::vector<Eigen::Vector3d>> LoadModelPoints(const std::string& 
                                                              double scale = 0.001,
                                                              int max_points = 0);
 
+// OK unless `path` is a PLY file whose header Assimp must not be given: one that is not
+// whole within 64 KiB (Assimp 5.2 loops forever on some) or whose element counts cannot
+// fit the bytes after it (Assimp allocates what a header claims). InvalidArgument naming
+// the file. Other formats: OK (Assimp's own checks apply).
+absl::Status CheckPlyHeader(const std::string& path);
+
 }  // namespace skimap::dataset
 
 #endif  // SKIMAP_DATASET_MODEL_POINTS_H_

@@ -105,6 +105,10 @@ absl::Status WriteRoot(const GeneratorOptions& o, const dataset::CameraInfo& cam
     names[std::to_string(m.obj_id)] = m.name;
     const std::string ply = o.out_dir + "/models/obj_" + Id6(m.obj_id) + ".ply";
     if (auto s = WritePlyMm(m.mesh, ply); !s.ok()) return s;
+    // The textured model as a user would have it (`skimap objects add`).
+    const std::string obj = o.out_dir + "/models/textured/obj_" + Id6(m.obj_id) + ".obj";
+    fs::create_directories(o.out_dir + "/models/textured", ec);
+    if (auto s = WriteObj(m.mesh, obj); !s.ok()) return s;
   }
   if (auto s = dataset::WriteModelsInfo(o.out_dir + "/models/models_info.json", infos); !s.ok()) {
     return s;
@@ -173,6 +177,7 @@ absl::StatusOr<GeneratorStats> Generate(const GeneratorOptions& o) {
   const std::vector<Mesh> distractors = MakeDistractors(*textures, 4);
   dataset::CameraInfo cam{{525.0, 525.0, 319.5, 239.5, 640, 480}, 0.2};
   if (auto s = WriteRoot(o, cam, objects); !s.ok()) return s;
+  if (o.models_only) return GeneratorStats{};
 
   GeneratorStats stats;
   double render_seconds = 0;

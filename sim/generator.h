@@ -40,6 +40,7 @@ struct GeneratorOptions {
                                      // more dropouts, colour noise, auto-exposure drift)
   int motion_blur = 0;               // 0/1: off; n >= 2: n sub-frames averaged
   bool train = true;                 // write train/
+  bool models_only = false;          // write the root files and models/ only
   int threads = 2;                   // frames rendered in parallel
   std::ostream* progress = nullptr;  // progress lines, if set
 };

@@ -25,6 +25,8 @@ Makes a synthetic RGB-D dataset with ground truth in BOP layout (plus TUM text f
   --scenes N          only the first N test scenes
   --speed X           trajectory speed multiplier [1]
   --no-train          skip the object training sequences
+  --models-only       write camera.json, objects.json and models/ (PLY, and textured OBJ
+                      under models/textured/) only
   --no-depth-noise    ideal depth (range limits only)
   --noise MODEL       test scenes' sensor: kinect or harsh (held out: more depth noise,
                       4 m range, more dropouts, colour noise, auto-exposure drift) [kinect]
@@ -82,6 +84,8 @@ int main(int argc, char** argv) {
       ok = int_value(&o.motion_blur);
     } else if (a == "--threads") {
       ok = int_value(&o.threads) && o.threads > 0;
+    } else if (a == "--models-only") {
+      o.models_only = true;
     } else if (a == "--no-train") {
       o.train = false;
     } else if (a == "--no-depth-noise") {
@@ -99,6 +103,10 @@ int main(int argc, char** argv) {
   if (!st.ok()) {
     std::cerr << "skimap-sim: " << st.status().message() << "\n";
     return 1;
+  }
+  if (o.models_only) {
+    std::cout << "skimap-sim: models written to " << o.out_dir << "/models\n";
+    return 0;
   }
   std::cout << "skimap-sim: " << st->frames << " frames in " << st->seconds << " s ("
             << st->frames / st->seconds << " frames/s written; " << st->render_fps

@@ -3,7 +3,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
 
@@ -143,6 +145,47 @@ absl::Status WritePlyMm(const Mesh& mesh, const std::string& path) {
     out << "3 " << 3 * t << " " << 3 * t + 1 << " " << 3 * t + 2 << "\n";
   out.close();
   if (!out) return absl::InternalError(absl::StrCat(path, ": write failed"));
+  return absl::OkStatus();
+}
+
+absl::Status WriteObj(const Mesh& mesh, const std::string& path) {
+  const std::filesystem::path obj(path);
+  const std::string stem = obj.stem().string();
+  const std::filesystem::path dir = obj.parent_path();
+  const std::string mtl_name = stem + ".mtl";
+  std::ofstream mtl(dir / mtl_name, std::ios::trunc);
+  if (!mtl) return absl::InternalError(absl::StrCat((dir / mtl_name).string(), ": cannot open"));
+  for (size_t i = 0; i < mesh.textures.size(); ++i) {
+    const std::string png = absl::StrCat(stem, "_tex", i, ".png");
+    if (!cv::imwrite((dir / png).string(), *mesh.textures[i])) {
+      return absl::InternalError(absl::StrCat((dir / png).string(), ": write failed"));
+    }
+    mtl << "newmtl tex" << i << "\nKd 1 1 1\nmap_Kd " << png << "\n";
+  }
+  std::ofstream out(path, std::ios::trunc);
+  if (!out) return absl::InternalError(absl::StrCat(path, ": cannot open for writing"));
+  out << "# skimap-sim model, units: metres\nmtllib " << mtl_name << "\n";
+  char line[128];
+  for (const Eigen::Vector3f& p : mesh.positions) {
+    std::snprintf(line, sizeof(line), "v %.6f %.6f %.6f\n", p.x(), p.y(), p.z());
+    out << line;
+  }
+  for (const Eigen::Vector2f& uv : mesh.uvs) {
+    std::snprintf(line, sizeof(line), "vt %.6f %.6f\n", uv.x(), 1.f - uv.y());
+    out << line;
+  }
+  int current = -1;
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (mesh.tri_texture[t] != current) {
+      current = mesh.tri_texture[t];
+      out << "usemtl tex" << current << "\n";
+    }
+    const auto& tri = mesh.triangles[t];
+    out << "f " << tri[0] + 1 << "/" << tri[0] + 1 << " " << tri[1] + 1 << "/" << tri[1] + 1 << " "
+        << tri[2] + 1 << "/" << tri[2] + 1 << "\n";
+  }
+  out.close();
+  if (!out || !mtl) return absl::InternalError(absl::StrCat(path, ": write failed"));
   return absl::OkStatus();
 }
 

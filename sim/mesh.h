@@ -60,6 +60,12 @@ Mesh MakeFrustum(float r0, float r1, float z0, float z1, int segments, Texture s
 // textures (vertices are split per triangle so colours stay per face). kInternal on I/O error.
 [[nodiscard]] absl::Status WritePlyMm(const Mesh& mesh, const std::string& path);
 
+// Writes the mesh as a Wavefront OBJ in metres with its textures: `path` (.obj), the .mtl
+// beside it (same stem) and one PNG per texture (stem_texN.png), what a textured CAD or
+// scan export looks like. uv v is flipped (OBJ's origin is the image's bottom left).
+// kInternal on I/O error.
+[[nodiscard]] absl::Status WriteObj(const Mesh& mesh, const std::string& path);
+
 // Samples `tex` at uv (repeat wrap, nearest). REQUIRES: tex non-empty.
 inline const cv::Vec3b& SampleTexture(const cv::Mat& tex, float u, float v) {
   int x = static_cast<int>((u - std::floor(u)) * tex.cols);

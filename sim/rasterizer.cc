@@ -112,8 +112,11 @@ void RasterInstance(const Instance& inst, const Eigen::Isometry3f& T_cw, const L
   for (size_t t = 0; t < m.triangles.size(); ++t) {
     const auto& tri = m.triangles[t];
     const Eigen::Vector3f& p0 = pc[tri[0]];
-    const Eigen::Vector3f n = (pc[tri[1]] - p0).cross(pc[tri[2]] - p0);
-    if (n.dot(p0) >= 0) continue;  // back face (camera at the origin)
+    Eigen::Vector3f n = (pc[tri[1]] - p0).cross(pc[tri[2]] - p0);
+    if (n.dot(p0) >= 0) {  // back face (camera at the origin)
+      if (!inst.two_sided) continue;
+      n = -n;
+    }
     if (pc[tri[0]].z() < near && pc[tri[1]].z() < near && pc[tri[2]].z() < near) continue;
     const Eigen::Vector3f nn = n.normalized();
     Eigen::Vector3f shade(1, 1, 1);

@@ -26,6 +26,9 @@ struct Instance {
   const Mesh* mesh = nullptr;  // not owned; must outlive the Render call
   Eigen::Isometry3f T_wm = Eigen::Isometry3f::Identity();  // world <- model
   uint16_t id = 0;
+  // Draw back faces too, lit as seen (models from elsewhere may wind their triangles
+  // either way).
+  bool two_sided = false;
 };
 
 // Per-sequence lighting: one directional light plus ambient, then exposure and tint.

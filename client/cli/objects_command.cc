@@ -6,7 +6,9 @@
 #include "absl/flags/flag.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
+#include "client/cli/model_views.h"
 #include "client/cli/training_frames.h"
 #include "client/object_client.h"
 #include "dataset/reader.h"
@@ -20,6 +22,15 @@ ABSL_FLAG(double, zoom_out, 0,
           "objects train: synthetic zoom-outs up to this factor (1 = off; 0 = the server's "
           "default)");
 ABSL_FLAG(bool, on_server, false, "objects train: the server reads DATASET from its disk");
+ABSL_FLAG(std::string, model_units, "auto",
+          "objects add: the model's units: m, mm (BOP models) or auto (mm when its bounding "
+          "box's diagonal exceeds 10)");
+ABSL_FLAG(std::string, camera, "",
+          "objects add: BOP camera.json whose intrinsics the training views use (default a "
+          "Kinect: 525 px focal length, 640x480)");
+ABSL_FLAG(std::string, view_distances, "",
+          "objects add: comma list of camera distances in metres (default max(0.6, 2.8 x "
+          "the model's diameter), as the sim's training orbits)");
 ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
 ABSL_FLAG(int, tree_depth, 0,
@@ -88,6 +99,46 @@ absl::StatusOr<v1::Object> StreamObject(ObjectClient& client, const TrainingObje
                  sent);
     return std::optional<v1::TrainingFrame>();
   });
+}
+
+// `objects add MODEL --object=ID`: training views rendered from the model file, streamed
+// as `objects train` streams a sequence's.
+absl::Status AddModel(ObjectClient& client, const std::string& model) {
+  const int id = absl::GetFlag(FLAGS_object);
+  if (id <= 0) return absl::InvalidArgumentError("objects add needs --object=ID (1..999999)");
+  ModelViewOptions options{absl::GetFlag(FLAGS_model_units), absl::GetFlag(FLAGS_camera), {}};
+  for (absl::string_view d :
+       absl::StrSplit(absl::GetFlag(FLAGS_view_distances), ',', absl::SkipWhitespace())) {
+    float metres = 0;
+    if (!absl::SimpleAtof(d, &metres) || !(metres > 0.05f && metres < 100.f)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--view_distances: '", d, "' is not a distance in metres (0.05-100)"));
+    }
+    options.distances.push_back(metres);
+  }
+  std::fprintf(stderr, "rendering training views of %s...\n", model.c_str());
+  absl::StatusOr<std::vector<v1::TrainingFrame>> frames = ModelTrainingFrames(model, options);
+  if (!frames.ok()) return frames.status();
+  v1::TrainObjectRequest header;
+  header.set_obj_id(id);
+  header.set_display_name(absl::GetFlag(FLAGS_name).empty() ? fs::path(model).stem().string()
+                                                            : absl::GetFlag(FLAGS_name));
+  *header.mutable_params() = ParamsFromFlags();
+  size_t next = 0;
+  absl::StatusOr<v1::Object> trained =
+      client.TrainObject(header, [&]() -> absl::StatusOr<std::optional<v1::TrainingFrame>> {
+        if (next == frames->size()) {
+          std::fprintf(stderr, "\rtraining objects/%d: %zu views sent, mean shift...\n", id,
+                       frames->size());
+          return std::optional<v1::TrainingFrame>();
+        }
+        std::fprintf(stderr, "\rtraining objects/%d: view %zu/%zu sent  ", id, next + 1,
+                     frames->size());
+        return std::optional<v1::TrainingFrame>(std::move((*frames)[next++]));
+      });
+  if (!trained.ok()) return trained.status();
+  PrintObject(*trained);
+  return absl::OkStatus();
 }
 
 // keep_trained: an object the server already has is kept (and said so), not retrained.
@@ -199,6 +250,10 @@ int RunObjectsCommand(const std::string& server, const std::vector<std::string>&
     if (args.size() < 4) return Fail(absl::InvalidArgumentError("objects train needs a DATASET"));
     return Exit(Train(*client, args[3], /*keep_trained=*/false));
   }
+  if (verb == "add") {
+    if (args.size() < 4) return Fail(absl::InvalidArgumentError("objects add needs a MODEL file"));
+    return Exit(AddModel(*client, args[3]));
+  }
   if (verb == "rm" || verb == "info") {
     absl::StatusOr<std::string> name = ObjectArg(args);
     if (!name.ok()) return Fail(name.status());
@@ -213,7 +268,8 @@ int RunObjectsCommand(const std::string& server, const std::vector<std::string>&
     return 0;
   }
   std::fprintf(stderr,
-               "skimap: objects ls | info ID | rm ID | train DATASET | build | classifier\n");
+               "skimap: objects ls | info ID | rm ID | train DATASET | add MODEL | build | "
+               "classifier\n");
   return 2;
 }
 

@@ -42,7 +42,7 @@ LAYERS = {
     'app':         (['server/app/'], ['skimap_server', 'skimapd'], ['grpc', 'http', 'core']),
     'client':      (['client/'], ['skimap_client'], ['proto', 'codec', 'base']),
     'bag':         (['ros/bag/'], ['skimap_bag'], ['proto', 'codec', 'base']),
-    'cli':         (['client/cli/'], ['skimap_cli'], ['client', 'dataset', 'bag']),
+    'cli':         (['client/cli/'], ['skimap_cli'], ['client', 'dataset', 'bag', 'sim']),
     'rosbridge':   (['ros/bridge/'], ['skimap_ros_bridge', 'skimap-ros'], ['client', 'bag']),
     'tools':       (['tools/'], ['skimap-load'], ['proto']),
 }

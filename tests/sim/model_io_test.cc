@@ -1,0 +1,123 @@
+// 3D model files into Meshes (sim/model_io.h) and their training views
+// (sim/training_views.h): a textured OBJ and a vertex-coloured PLY written by the sim
+// render like the mesh they came from; hostile files are refused by name.
+#include "sim/model_io.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sim/mesh.h"
+#include "sim/objects.h"
+#include "sim/training_views.h"
+
+namespace skimap::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ModelIoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) / "model_io_test";
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    absl::StatusOr<std::vector<Texture>> textures = LoadTextures(kDefaultTextureDir, 256, 2);
+    ASSERT_TRUE(textures.ok()) << textures.status();
+    box_ = MakePrintedBox({0.12f, 0.08f, 0.20f}, (*textures)[0]);
+  }
+  std::string Path(const std::string& name) const { return (dir_ / name).string(); }
+  void Write(const std::string& name, const std::string& bytes) const {
+    std::ofstream(Path(name), std::ios::binary) << bytes;
+  }
+  // Mean absolute difference of two renders' colours where both show the model.
+  static double ColourDifference(const TrainingView& a, const TrainingView& b) {
+    cv::Mat both = a.mask & b.mask, diff;
+    cv::absdiff(a.bgr, b.bgr, diff);
+    const cv::Scalar mean = cv::mean(diff, both);
+    return (mean[0] + mean[1] + mean[2]) / 3;
+  }
+
+  fs::path dir_;
+  Mesh box_;
+};
+
+const dataset::Intrinsics kKinect{525, 525, 319.5, 239.5, 640, 480};
+
+TEST_F(ModelIoTest, ATexturedObjRendersLikeItsMesh) {
+  ASSERT_TRUE(WriteObj(box_, Path("box.obj")).ok());
+  absl::StatusOr<Mesh> loaded = LoadModel(Path("box.obj"));
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->triangles.size(), box_.triangles.size());
+  EXPECT_TRUE(loaded->Bounds().isApprox(box_.Bounds(), 1e-4f));  // metres kept (auto)
+  const TrainingViewOptions few{.elevations_deg = {20}, .azimuths = 4};
+  const std::vector<TrainingView> original = RenderTrainingViews(box_, kKinect, few);
+  const std::vector<TrainingView> read = RenderTrainingViews(*loaded, kKinect, few);
+  ASSERT_EQ(original.size(), 4u);
+  ASSERT_EQ(read.size(), 4u);
+  for (size_t i = 0; i < read.size(); ++i) {
+    EXPECT_LT(ColourDifference(original[i], read[i]), 3.0) << "view " << i;
+    EXPECT_GT(cv::countNonZero(read[i].mask), 2000) << "view " << i;
+  }
+}
+
+TEST_F(ModelIoTest, AVertexColouredPlyInMillimetresIsReadInMetres) {
+  ASSERT_TRUE(WritePlyMm(box_, Path("box.ply")).ok());  // colours per face, millimetres
+  absl::StatusOr<Mesh> loaded = LoadModel(Path("box.ply"));
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->triangles.size(), box_.triangles.size());
+  EXPECT_TRUE(loaded->Bounds().isApprox(box_.Bounds(), 1e-3f));
+  absl::StatusOr<Mesh> as_metres = LoadModel(Path("box.ply"), {.units = ModelUnits::kMetres});
+  ASSERT_TRUE(as_metres.ok());
+  EXPECT_NEAR(as_metres->Bounds().sizes().z(), 200.f, 0.01f);
+  // Each face in the colour the PLY gives it: a render is all model-coloured, no black.
+  const std::vector<TrainingView> views =
+      RenderTrainingViews(*loaded, kKinect, {.elevations_deg = {35}, .azimuths = 2});
+  ASSERT_EQ(views.size(), 2u);
+  const cv::Scalar mean = cv::mean(views[0].bgr, views[0].mask);
+  EXPECT_GT(mean[0] + mean[1] + mean[2], 30.0);
+}
+
+TEST_F(ModelIoTest, TrainingViewsOrbitTheModelWithItsPose) {
+  const std::vector<TrainingView> views = RenderTrainingViews(box_, kKinect);
+  ASSERT_EQ(views.size(), 3u * 36u);  // elevations 10, 35, 60 x 36 azimuths
+  const double distance = std::max(0.6f, 2.8f * box_.Diameter());  // the sim's orbits
+  for (const TrainingView& v : views) {
+    // The model's centre lies at the orbit's distance, projected near the image centre.
+    const Eigen::Vector3d c = v.T_m2c * box_.Bounds().center().cast<double>();
+    EXPECT_NEAR(c.norm(), distance, 0.01);
+    EXPECT_NEAR(kKinect.fx * c.x() / c.z() + kKinect.cx, 319.5, 2.0);
+    // Depth where the mask is, none elsewhere.
+    EXPECT_EQ(cv::countNonZero(v.depth_mm > 0), cv::countNonZero(v.mask));
+  }
+}
+
+TEST_F(ModelIoTest, HostileFilesAreRefusedByName) {
+  Write("empty.ply", "");
+  Write("header.ply", "ply\nformat ascii 1.0\nelement vertex\n");  // Assimp 5.2 loops on it
+  Write("claims.ply",
+        "ply\nformat binary_little_endian 1.0\nelement vertex 100000000\nproperty float x\n"
+        "end_header\n1234");
+  Write("points.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
+  Write("garbage.obj", std::string(4096, '\x9c'));
+  Write("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  for (const char* name :
+       {"empty.ply", "header.ply", "claims.ply", "points.ply", "garbage.obj", "nan.obj"}) {
+    absl::StatusOr<Mesh> m = LoadModel(Path(name));
+    EXPECT_EQ(m.status().code(), absl::StatusCode::kInvalidArgument) << name << ": " << m.status();
+    EXPECT_NE(m.status().message().find(name), std::string::npos) << m.status();
+  }
+  EXPECT_EQ(LoadModel(Path("missing.obj")).status().code(), absl::StatusCode::kNotFound);
+  ASSERT_TRUE(WriteObj(box_, Path("box.obj")).ok());
+  EXPECT_EQ(LoadModel(Path("box.obj"), {.max_file_bytes = 100}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(LoadModel(Path("box.obj"), {.max_triangles = 4}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_FALSE(ParseModelUnits("km", "--model_units").ok());
+}
+
+}  // namespace
+}  // namespace skimap::sim
