@@ -21,7 +21,8 @@ std::string MiniDataset() {
   const int fd = open(lock_path.c_str(), O_CREAT | O_RDWR, 0644);
   EXPECT_GE(fd, 0);
   flock(fd, LOCK_EX);
-  if (!fs::exists(done)) {
+  // A cache from before the sim wrote textured models is rendered again.
+  if (!fs::exists(done) || !fs::exists(root / "models" / "textured")) {
     fs::remove_all(root);
     sim::GeneratorOptions o;
     o.out_dir = root.string();

@@ -77,5 +77,40 @@ TEST(ObjectsCliTest, TrainAndListAgainstSkimapdAcrossARestart) {
   EXPECT_TRUE(std::filesystem::exists(data + "/objects.sqlite"));
 }
 
+// `objects add MODEL`: a textured OBJ the sim wrote becomes an object trained from 108
+// rendered views; a model file that is not one is refused and trains nothing.
+TEST(ObjectsCliTest, AddTrainsAnObjectFromItsTexturedModel) {
+  const std::string mini = objects::testing::MiniDataset();
+  const std::string temp = objects::testing::TempDir();  // fresh on each call: once
+  const std::string data = temp + "/data_add";
+  const std::string server = absl::StrCat("127.0.0.1:", FreePort());
+  pid_t pid = StartSkimapd(server, data);
+  ASSERT_GT(pid, 0);
+  std::string out;
+  ASSERT_EQ(LsWhenUp(server, &out), 0);
+  const std::string model = mini + "/models/textured/obj_000001.obj";
+  ASSERT_TRUE(std::filesystem::exists(model));
+  EXPECT_EQ(Cli(absl::StrCat("--server=", server, " objects add ", model), &out), 1)
+      << "no --object";
+  const std::string bad = temp + "/not_a_model.obj";
+  {
+    FILE* f = std::fopen(bad.c_str(), "w");
+    std::fputs("this is not a model\n", f);
+    std::fclose(f);
+  }
+  EXPECT_EQ(Cli(absl::StrCat("--server=", server, " objects add ", bad, " --object=9"), &out), 1);
+  ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects add ", model,
+                             " --object=5 --name=from_model"),
+                &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("objects/5"), std::string::npos) << out;
+  EXPECT_NE(out.find("from_model"), std::string::npos) << out;
+  EXPECT_NE(out.find("frames  108"), std::string::npos) << out;
+  ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects ls"), &out), 0);
+  EXPECT_EQ(out.find("objects/9"), std::string::npos) << out;
+  Stop(pid);
+}
+
 }  // namespace
 }  // namespace skimap::testing
