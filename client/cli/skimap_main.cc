@@ -17,7 +17,8 @@
 //   skimap export --map=ID -o FILE [--with-journal]   the map as one export file
 //   skimap import FILE [--as=ID]                       a map from an export file
 //     (client/cli/transfer_command.h)
-//   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | build | classifier
+//   skimap objects ls | info ID | rm ID | train DATASET [--object=ID] | add MODEL --object=ID
+//                  | build | classifier
 //     (client/cli/objects_command.h)
 //   skimap nodes                               a fleet's nodes and the maps each serves
 //   skimap instances --map=ID [--box=..|--sphere=..] [--objects=..] [--min_score=S] [--json]
@@ -303,7 +304,7 @@ int main(int argc, char** argv) {
       "       skimap export --map=ID -o FILE [--with-journal]\n"
       "       skimap import FILE [--as=ID]\n"
       "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
-      "[--detector=ORB]|build|classifier\n"
+      "[--detector=ORB]|add MODEL --object=ID|build|classifier\n"
       "       skimap nodes\n"
       "       skimap health\n"
       "       skimap instances --map=ID [--box=X0,Y0,Z0,X1,Y1,Z1|--sphere=X,Y,Z,R] "
