@@ -35,6 +35,7 @@ absl::StatusOr<std::vector<v1::TrainingFrame>> ModelTrainingFrames(
   if (!mesh.ok()) return mesh.status();
   sim::TrainingViewOptions view_options;
   view_options.distances = options.distances;
+  view_options.azimuths = options.azimuths;
   const std::vector<sim::TrainingView> views = sim::RenderTrainingViews(*mesh, K, view_options);
   if (views.empty()) {
     return absl::FailedPreconditionError(absl::StrCat(

@@ -22,6 +22,7 @@ struct ModelViewOptions {
   std::string units = "auto";    // auto, m or mm (sim::ParseModelUnits)
   std::string camera;            // a BOP camera.json; "": a Kinect (525 px, 640x480)
   std::vector<float> distances;  // metres; empty: the sim's training orbits' distance
+  int azimuths = 36;             // views per orbit
 };
 
 // Errors: the model's (NotFound, InvalidArgument naming the file), a bad --model_units or

@@ -31,6 +31,9 @@ ABSL_FLAG(std::string, camera, "",
 ABSL_FLAG(std::string, view_distances, "",
           "objects add: comma list of camera distances in metres (default max(0.6, 2.8 x "
           "the model's diameter), as the sim's training orbits)");
+ABSL_FLAG(int, view_azimuths, 36,
+          "objects add: views per orbit (evenly spaced azimuths; 3 orbits, at 10, 35 and 60 "
+          "degrees)");
 ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
 ABSL_FLAG(int, tree_depth, 0,
@@ -106,7 +109,12 @@ absl::StatusOr<v1::Object> StreamObject(ObjectClient& client, const TrainingObje
 absl::Status AddModel(ObjectClient& client, const std::string& model) {
   const int id = absl::GetFlag(FLAGS_object);
   if (id <= 0) return absl::InvalidArgumentError("objects add needs --object=ID (1..999999)");
-  ModelViewOptions options{absl::GetFlag(FLAGS_model_units), absl::GetFlag(FLAGS_camera), {}};
+  const int azimuths = absl::GetFlag(FLAGS_view_azimuths);
+  if (azimuths < 1 || azimuths > 360) {
+    return absl::InvalidArgumentError("--view_azimuths: 1..360 views per orbit");
+  }
+  ModelViewOptions options{
+      absl::GetFlag(FLAGS_model_units), absl::GetFlag(FLAGS_camera), {}, azimuths};
   for (absl::string_view d :
        absl::StrSplit(absl::GetFlag(FLAGS_view_distances), ',', absl::SkipWhitespace())) {
     float metres = 0;

@@ -9,7 +9,8 @@
 //       --object, one BOP scene folder. Frames are streamed from this machine; with
 //       --on_server the server reads DATASET from its own disk (a long-running operation).
 //   skimap objects add MODEL --object=ID [--name=NAME] [--model_units=auto|m|mm]
-//                 [--camera=camera.json] [--view_distances=M,...] [--detector=...]
+//                 [--camera=camera.json] [--view_distances=M,...] [--view_azimuths=36]
+//                 [--detector=...]
 //       trains an object from a 3D model file (PLY with vertex colours, OBJ + MTL +
 //       texture, glTF / GLB, ...): training views rendered here (client/cli/model_views.h)
 //       and streamed as `objects train` streams a sequence's

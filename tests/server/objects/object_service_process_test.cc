@@ -77,8 +77,8 @@ TEST(ObjectsCliTest, TrainAndListAgainstSkimapdAcrossARestart) {
   EXPECT_TRUE(std::filesystem::exists(data + "/objects.sqlite"));
 }
 
-// `objects add MODEL`: a textured OBJ the sim wrote becomes an object trained from 108
-// rendered views; a model file that is not one is refused and trains nothing.
+// `objects add MODEL`: a textured OBJ the sim wrote becomes an object trained from its
+// rendered views (3 orbits of 12 here); a model file that is not one is refused and trains nothing.
 TEST(ObjectsCliTest, AddTrainsAnObjectFromItsTexturedModel) {
   const std::string mini = objects::testing::MiniDataset();
   const std::string temp = objects::testing::TempDir();  // fresh on each call: once
@@ -100,13 +100,13 @@ TEST(ObjectsCliTest, AddTrainsAnObjectFromItsTexturedModel) {
   }
   EXPECT_EQ(Cli(absl::StrCat("--server=", server, " objects add ", bad, " --object=9"), &out), 1);
   ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects add ", model,
-                             " --object=5 --name=from_model"),
+                             " --object=5 --name=from_model --view_azimuths=12"),
                 &out),
             0)
       << out;
   EXPECT_NE(out.find("objects/5"), std::string::npos) << out;
   EXPECT_NE(out.find("from_model"), std::string::npos) << out;
-  EXPECT_NE(out.find("frames  108"), std::string::npos) << out;
+  EXPECT_NE(out.find("frames   36"), std::string::npos) << out;  // 3 orbits x 12
   ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects ls"), &out), 0);
   EXPECT_EQ(out.find("objects/9"), std::string::npos) << out;
   Stop(pid);
