@@ -86,6 +86,13 @@ TEST(ObjectsCliTest, AddTrainsAnObjectFromItsTexturedModel) {
   const std::string server = absl::StrCat("127.0.0.1:", FreePort());
   pid_t pid = StartSkimapd(server, data);
   ASSERT_GT(pid, 0);
+  // A failed assertion returns early: the server must not outlive the test.
+  struct Reaper {
+    pid_t* pid;
+    ~Reaper() {
+      if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
+    }
+  } reaper{&pid};
   std::string out;
   ASSERT_EQ(LsWhenUp(server, &out), 0);
   const std::string model = mini + "/models/textured/obj_000001.obj";
@@ -110,6 +117,7 @@ TEST(ObjectsCliTest, AddTrainsAnObjectFromItsTexturedModel) {
   ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects ls"), &out), 0);
   EXPECT_EQ(out.find("objects/9"), std::string::npos) << out;
   Stop(pid);
+  pid = 0;
 }
 
 }  // namespace
