@@ -1,5 +1,5 @@
-// pg_failover_bench: skimapd on a replicated PostgreSQL (issue 36; docs/benchmarks.md,
-// "A replicated store"). A plain program, not a test; markdown tables on stdout, progress
+// pg_failover_bench: skimapd on a replicated PostgreSQL (docs/benchmarks.md, "A replicated
+// store"). A plain program, not a test; markdown tables on stdout, progress
 // on stderr:
 //
 //   build/bench/bench/pg_failover_bench [--kills=10] [--frames=150] [--streams=4]
@@ -229,7 +229,6 @@ void Failover(std::vector<Topology>& topologies) {
       const absl::Time at = absl::Now();
       {
         std::lock_guard<std::mutex> lock(mu);
-        if (first.size() < killed.size()) first.push_back(absl::InfiniteFuture());
         killed.push_back(at);
       }
       std::thread probe([&, at] {  // the database alone
@@ -248,14 +247,14 @@ void Failover(std::vector<Topology>& topologies) {
       Check(t.cluster->StartNode(*primary).ok(), "restart");
       Check(t.cluster->WaitHealthy(absl::Seconds(120)).ok(), "healthy again");
       probe.join();
-      std::fprintf(stderr, "pg_failover_bench: %s: kill %d done\n", t.name.c_str(), k + 1);
-    }
-    for (int wait = 0; wait < 600; ++wait) {  // the last kill's first new ack
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        if (first.size() == killed.size()) break;
+      for (int wait = 0; wait < 600; ++wait) {  // ingestion resumes before the next kill
+        {
+          std::lock_guard<std::mutex> lock(mu);
+          if (first.size() == killed.size()) break;
+        }
+        absl::SleepFor(absl::Milliseconds(100));
       }
-      absl::SleepFor(absl::Milliseconds(100));
+      std::fprintf(stderr, "pg_failover_bench: %s: kill %d done\n", t.name.c_str(), k + 1);
     }
     paced = false;
     streaming.join();

@@ -60,10 +60,10 @@ Texture MaterialTexture(const aiScene& scene, const aiMaterial& material, const 
   }
   std::error_code ec;
   const fs::path file = fs::weakly_canonical(dir / name.C_Str(), ec);
-  const fs::path root = fs::weakly_canonical(dir, ec);
-  const std::string f = file.string(), r = root.string();
-  if (ec || f.compare(0, r.size(), r) != 0) return nullptr;  // outside the model's folder
-  return Fit(cv::imread(f, cv::IMREAD_COLOR), side);
+  const fs::path root = fs::weakly_canonical(dir.empty() ? "." : dir, ec);
+  const fs::path inside = file.lexically_relative(root);
+  if (ec || inside.empty() || *inside.begin() == "..") return nullptr;  // outside the folder
+  return Fit(cv::imread(file.string(), cv::IMREAD_COLOR), side);
 }
 
 // The material's diffuse colour as a one-texel texture (white when it has none).

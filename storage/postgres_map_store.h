@@ -157,11 +157,8 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
   template <class T>
   absl::StatusOr<T> WithConnection(const std::function<absl::StatusOr<T>(PgConnection&)>& fn);
   static absl::Status NoSynchronousStandby();
-  // `s` marked (a payload) as the error of an append whose last COMMIT's answer was lost
-  // and could not be settled.
-  static absl::Status OutcomeUnknown(absl::Status s);
-  static bool IsOutcomeUnknown(const absl::Status& s);
-  static bool IsNoSynchronousStandby(const absl::Status& s);
+  static absl::Status NoMap(const std::string& id);
+  static int64_t Clamp(size_t v);  // for a BIGINT parameter
   // Sleeps the next backoff step; false (no sleep) once `deadline` would pass.
   static bool Backoff(absl::Time deadline, absl::Duration* step);
   enum class Outcome { kLost, kCommitted, kNotCommitted, kUnresolved };
@@ -190,6 +187,12 @@ class PostgresMapStore final : public MapStore, public LeaseStore {
   // map's row is locked in c's transaction (so no transaction of ours is still writing).
   absl::StatusOr<bool> Committed(PgConnection& c, const std::string& id,
                                  const PendingAppend& append);
+  // Settles the map's unsettled appends and `attempt` (this call's lost one, or null),
+  // dropping those that did not commit; the position of a committed one with `records`.
+  // REQUIRES: as Committed.
+  absl::StatusOr<std::optional<uint64_t>> Settle(PgConnection& c, const std::string& id,
+                                                 const std::vector<JournalRecord>& records,
+                                                 const PendingAppend* attempt);
   // Forgets the unsettled appends of map `id` (deleted or created anew).
   void ForgetPending(const std::string& id);
 

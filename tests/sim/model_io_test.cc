@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 
 #include "sim/mesh.h"
 #include "sim/objects.h"
@@ -117,6 +118,22 @@ TEST_F(ModelIoTest, HostileFilesAreRefusedByName) {
   EXPECT_EQ(LoadModel(Path("box.obj"), {.max_triangles = 4}).status().code(),
             absl::StatusCode::kInvalidArgument);
   EXPECT_FALSE(ParseModelUnits("km", "--model_units").ok());
+}
+
+// A material's texture is read only from the model's folder: one that names a file outside
+// it leaves the material's own colour.
+TEST_F(ModelIoTest, ATextureOutsideTheModelsFolderIsNotRead) {
+  fs::create_directories(dir_ / "model");
+  ASSERT_TRUE(cv::imwrite(Path("outside.png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 255))));
+  Write("model/m.mtl", "newmtl a\nKd 0 1 0\nmap_Kd ../outside.png\n");
+  Write("model/m.obj",
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\n"
+        "f 1/1 2/2 3/3\n");
+  absl::StatusOr<Mesh> m = LoadModel(Path("model/m.obj"));
+  ASSERT_TRUE(m.ok()) << m.status();
+  ASSERT_EQ(m->textures.size(), 1u);
+  EXPECT_EQ(m->textures[0]->total(), 1u);  // the material's colour, not the 8x8 picture
+  EXPECT_EQ(m->textures[0]->at<cv::Vec3b>(0, 0), cv::Vec3b(0, 255, 0));
 }
 
 }  // namespace

@@ -184,6 +184,16 @@ TEST_F(PostgresStoreTest, ADatabaseOfANewerSchemaIsRefused) {
   EXPECT_EQ(s.status().code(), absl::StatusCode::kFailedPrecondition) << s.status();
 }
 
+// libpq quotes the part of a connection string it cannot parse, which may be the password.
+TEST_F(PostgresStoreTest, AConnectionStringThatDoesNotParseIsRefusedWithoutQuotingIt) {
+  for (const char* dsn :
+       {"postgresql://skimap:s3cret%zz@127.0.0.1/x", "host=127.0.0.1 password=s3cret junk"}) {
+    auto s = PostgresMapStore::Open(dsn, {});
+    EXPECT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument) << dsn << ": " << s.status();
+    EXPECT_EQ(s.status().message().find("s3cret"), std::string::npos) << s.status();
+  }
+}
+
 TEST_F(PostgresStoreTest, AnUnreachableServerIsUnavailable) {
   auto s = PostgresMapStore::Open("postgresql://skimap@127.0.0.1:1/x?connect_timeout=2", {});
   EXPECT_EQ(s.status().code(), absl::StatusCode::kUnavailable) << s.status();
