@@ -1,5 +1,8 @@
 #include "client/object_client.h"
 
+#include <fstream>
+
+#include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "client/map_client.h"  // FromGrpcStatus, MakeChannel
 
@@ -48,6 +51,44 @@ absl::StatusOr<v1::Object> ObjectClient::TrainObject(const v1::TrainObjectReques
   if (!local.ok()) return local;
   if (!s.ok()) return FromGrpcStatus(s);
   return object;
+}
+
+absl::StatusOr<v1::Operation> ObjectClient::AddObjectModel(
+    const v1::AddObjectModelRequest& header, const std::vector<ModelFileToSend>& files) {
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, options_.train_timeout);
+  v1::Operation op;
+  std::unique_ptr<grpc::ClientWriter<v1::AddObjectModelRequest>> writer =
+      stub_->AddObjectModel(&ctx, &op);
+  v1::AddObjectModelRequest first = header;
+  first.clear_file();
+  absl::Status local;
+  bool open = writer->Write(first);
+  std::vector<char> buffer(size_t{1} << 20);
+  for (size_t i = 0; open && local.ok() && i < files.size(); ++i) {
+    std::ifstream in(files[i].path, std::ios::binary);
+    if (!in) {
+      local = absl::NotFoundError(absl::StrCat(files[i].path, ": cannot read"));
+      ctx.TryCancel();
+      break;
+    }
+    bool first_piece = true;
+    while (open && (in || first_piece)) {
+      in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+      const std::streamsize n = in.gcount();
+      if (n == 0 && !first_piece) break;
+      v1::AddObjectModelRequest message;
+      message.mutable_file()->set_name(files[i].name);
+      message.mutable_file()->set_data(buffer.data(), static_cast<size_t>(n));
+      open = writer->Write(message);  // false: the server already answered (an error)
+      first_piece = false;
+    }
+  }
+  writer->WritesDone();
+  const grpc::Status s = writer->Finish();
+  if (!local.ok()) return local;
+  if (!s.ok()) return FromGrpcStatus(s);
+  return op;
 }
 
 #define SKIMAP_UNARY(Method, Request, Response, request_expr)    \

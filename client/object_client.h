@@ -49,6 +49,16 @@ class ObjectClient {
                                          const NextFrame& next_frame);
   absl::StatusOr<v1::Operation> TrainObjectFromDataset(
       const v1::TrainObjectFromDatasetRequest& request);
+  // Streams `header` (obj_id, display_name, model, views, params) and then each file, read
+  // from its local path in 1 MiB pieces under its upload name. Answers the operation that
+  // renders and trains (wait on it with WaitDone). NotFound naming a file that cannot be
+  // read.
+  struct ModelFileToSend {
+    std::string name;  // as the server will know it, e.g. "textures/wood.png"
+    std::string path;  // on this machine
+  };
+  absl::StatusOr<v1::Operation> AddObjectModel(const v1::AddObjectModelRequest& header,
+                                               const std::vector<ModelFileToSend>& files);
   absl::StatusOr<v1::ListObjectsResponse> ListObjects(const v1::ListObjectsRequest& request);
   // Every object, following page tokens.
   absl::StatusOr<std::vector<v1::Object>> ListAllObjects();

@@ -78,18 +78,6 @@ std::string Id6(int id) {
   return b;
 }
 
-Lighting RandomLighting(std::mt19937_64& rng) {
-  Lighting l;
-  const float az = Uniform(rng, 0, 6.2832f), el = Uniform(rng, 0.7f, 1.2f);
-  l.dir_world =
-      -Eigen::Vector3f(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
-  l.ambient = Uniform(rng, 0.35f, 0.55f);
-  l.diffuse = Uniform(rng, 0.5f, 0.7f);
-  l.exposure = Uniform(rng, 0.85f, 1.15f);
-  l.tint = {Uniform(rng, 0.92f, 1.08f), Uniform(rng, 0.95f, 1.05f), Uniform(rng, 0.92f, 1.08f)};
-  return l;
-}
-
 absl::Status WriteRoot(const GeneratorOptions& o, const dataset::CameraInfo& cam,
                        const std::vector<ObjectModel>& objects) {
   std::error_code ec;

@@ -1,135 +1,244 @@
-// Assimp scenes into Meshes. See model_io.h for the contract.
+// 3D model files into Meshes: checks here, Assimp in a child process (model_assimp.h), the
+// result validated here. See model_io.h for the contract.
 #include "sim/model_io.h"
 
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
-#include <assimp/Importer.hpp>
-#include <cmath>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "dataset/model_points.h"
+#include "sim/model_assimp.h"
 
 namespace skimap::sim {
 namespace {
 
 namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
 
-// A BGR texture no larger than `side` on its longer side; empty when `image` is.
-Texture Fit(cv::Mat image, int side) {
-  if (image.empty()) return nullptr;
-  if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
-  if (image.channels() == 1) cv::cvtColor(image, image, cv::COLOR_GRAY2BGR);
-  if (image.depth() != CV_8U) image.convertTo(image, CV_8U, 1.0 / 257);
-  const int longer = std::max(image.cols, image.rows);
-  if (longer > side) {
-    const double f = double(side) / longer;
-    cv::resize(image, image, cv::Size(), f, f, cv::INTER_AREA);
+constexpr size_t kTextureBudget = size_t{512} << 20;  // decoded texture bytes per model
+constexpr int kMaxTextureSide = 16384;
+
+// ---- The child's answer on the pipe: a status, or the mesh as flat arrays. ----
+
+void Put(std::string* out, const void* data, size_t bytes) {
+  out->append(static_cast<const char*>(data), bytes);
+}
+void PutU64(std::string* out, uint64_t v) { Put(out, &v, sizeof v); }
+
+std::string EncodeAnswer(const absl::StatusOr<Mesh>& mesh) {
+  std::string out;
+  if (!mesh.ok()) {
+    out.push_back(0);
+    PutU64(&out, static_cast<uint64_t>(mesh.status().code()));
+    const absl::string_view message = mesh.status().message();
+    PutU64(&out, message.size());
+    Put(&out, message.data(), message.size());
+    return out;
   }
-  return std::make_shared<const cv::Mat>(std::move(image));
+  out.push_back(1);
+  PutU64(&out, mesh->positions.size());
+  for (const Eigen::Vector3f& p : mesh->positions) Put(&out, p.data(), 3 * sizeof(float));
+  for (const Eigen::Vector2f& uv : mesh->uvs) Put(&out, uv.data(), 2 * sizeof(float));
+  PutU64(&out, mesh->triangles.size());
+  for (const auto& t : mesh->triangles) Put(&out, t.data(), 3 * sizeof(int));
+  Put(&out, mesh->tri_texture.data(), mesh->tri_texture.size() * sizeof(int));
+  PutU64(&out, mesh->textures.size());
+  for (const Texture& t : mesh->textures) {
+    const cv::Mat m = t->isContinuous() ? *t : t->clone();
+    PutU64(&out, static_cast<uint64_t>(m.rows));
+    PutU64(&out, static_cast<uint64_t>(m.cols));
+    PutU64(&out, static_cast<uint64_t>(m.type()));
+    Put(&out, m.data, m.total() * m.elemSize());
+  }
+  return out;
 }
 
-// The material's colour texture: embedded ("*0", or by name in glTF) or a file under the
-// model's folder (a path that leaves it is not read). nullptr when it has none or it
-// cannot be read.
-Texture MaterialTexture(const aiScene& scene, const aiMaterial& material, const fs::path& dir,
-                        int side) {
-  aiString name;
-  bool found = false;
-  for (aiTextureType type : {aiTextureType_BASE_COLOR, aiTextureType_DIFFUSE}) {
-    if (material.GetTextureCount(type) > 0 && material.GetTexture(type, 0, &name) == AI_SUCCESS) {
-      found = true;
+class Reader {
+ public:
+  explicit Reader(std::string_view in) : in_(in) {}
+  bool Get(void* out, size_t bytes) {
+    if (bytes > in_.size() - pos_) return false;
+    std::memcpy(out, in_.data() + pos_, bytes);
+    pos_ += bytes;
+    return true;
+  }
+  bool U64(uint64_t* v) { return Get(v, sizeof *v); }
+  size_t left() const { return in_.size() - pos_; }
+
+ private:
+  std::string_view in_;
+  size_t pos_ = 0;
+};
+
+// The child's answer, every count and index checked: the child is not trusted either.
+absl::StatusOr<Mesh> DecodeAnswer(std::string_view bytes, const std::string& path,
+                                  const ModelOptions& options) {
+  const absl::Status broken =
+      absl::InvalidArgumentError(absl::StrCat(path, ": the model reader gave a broken answer"));
+  Reader in(bytes);
+  uint8_t ok = 0;
+  if (!in.Get(&ok, 1)) return broken;
+  if (ok == 0) {
+    uint64_t code = 0, size = 0;
+    if (!in.U64(&code) || !in.U64(&size) || size > in.left()) return broken;
+    std::string message(size, '\0');
+    in.Get(message.data(), size);
+    if (code == 0 || code > 16) return broken;
+    return absl::Status(static_cast<absl::StatusCode>(code), message);
+  }
+  Mesh mesh;
+  uint64_t n = 0;
+  if (!in.U64(&n) || n > in.left() / (5 * sizeof(float))) return broken;
+  mesh.positions.resize(n);
+  mesh.uvs.resize(n);
+  for (Eigen::Vector3f& p : mesh.positions) in.Get(p.data(), 3 * sizeof(float));
+  for (Eigen::Vector2f& uv : mesh.uvs) in.Get(uv.data(), 2 * sizeof(float));
+  uint64_t triangles = 0;
+  if (!in.U64(&triangles) || triangles > options.max_triangles ||
+      triangles > in.left() / (4 * sizeof(int))) {
+    return broken;
+  }
+  mesh.triangles.resize(triangles);
+  mesh.tri_texture.resize(triangles);
+  for (auto& t : mesh.triangles) in.Get(t.data(), 3 * sizeof(int));
+  in.Get(mesh.tri_texture.data(), triangles * sizeof(int));
+  uint64_t textures = 0;
+  if (!in.U64(&textures) || textures > in.left() / 24) return broken;
+  for (uint64_t i = 0; i < textures; ++i) {
+    uint64_t rows = 0, cols = 0, type = 0;
+    if (!in.U64(&rows) || !in.U64(&cols) || !in.U64(&type)) return broken;
+    const int t = static_cast<int>(type);
+    const bool known = type < 64 && (CV_MAT_DEPTH(t) == CV_8U || CV_MAT_DEPTH(t) == CV_16U) &&
+                       (CV_MAT_CN(t) == 1 || CV_MAT_CN(t) == 3 || CV_MAT_CN(t) == 4);
+    if (!known || rows < 1 || cols < 1 || rows > kMaxTextureSide || cols > kMaxTextureSide) {
+      return broken;
+    }
+    cv::Mat image(static_cast<int>(rows), static_cast<int>(cols), t);
+    if (!in.Get(image.data, image.total() * image.elemSize())) return broken;
+    // BGR, 8 bits, no larger than max_texture_side.
+    if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
+    if (image.channels() == 1) cv::cvtColor(image, image, cv::COLOR_GRAY2BGR);
+    if (image.depth() != CV_8U) image.convertTo(image, CV_8U, 1.0 / 257);
+    const int longer = std::max(image.cols, image.rows);
+    if (longer > options.max_texture_side) {
+      const double f = double(options.max_texture_side) / longer;
+      cv::resize(image, image, cv::Size(), f, f, cv::INTER_AREA);
+    }
+    mesh.textures.push_back(std::make_shared<const cv::Mat>(std::move(image)));
+  }
+  if (in.left() != 0) return broken;
+  for (const auto& t : mesh.triangles) {
+    for (int v : t) {
+      if (v < 0 || static_cast<uint64_t>(v) >= n) return broken;
+    }
+  }
+  for (int t : mesh.tri_texture) {
+    if (t < 0 || static_cast<size_t>(t) >= mesh.textures.size()) return broken;
+  }
+  return mesh;
+}
+
+bool SanitizerBuild() {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  return true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+  return true;
+#endif
+#endif
+  return false;
+}
+
+// The child: limits itself, reads, writes its answer, exits without running destructors
+// or atexit handlers of the parent's state.
+[[noreturn]] void Child(int fd, const std::string& path, const ModelOptions& options) {
+  const rlim_t cpu = static_cast<rlim_t>(std::max(1, options.max_seconds));
+  const rlimit cpu_limit{cpu, cpu};
+  setrlimit(RLIMIT_CPU, &cpu_limit);
+  if (!SanitizerBuild()) {  // sanitizers reserve terabytes of address space up front
+    const rlimit memory{options.max_memory_bytes, options.max_memory_bytes};
+    setrlimit(RLIMIT_AS, &memory);
+  }
+  const std::string answer =
+      EncodeAnswer(ReadModelWithAssimp(path, options.max_triangles, kTextureBudget));
+  size_t done = 0;
+  while (done < answer.size()) {
+    const ssize_t w = write(fd, answer.data() + done, answer.size() - done);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) _exit(3);
+    done += static_cast<size_t>(w);
+  }
+  _exit(0);
+}
+
+// Runs the child and collects its answer within options.max_seconds.
+absl::StatusOr<Mesh> ReadInChild(const std::string& path, const ModelOptions& options) {
+  int fds[2];
+  if (pipe2(fds, O_CLOEXEC) != 0) {
+    return absl::InternalError(absl::StrCat("pipe: ", std::strerror(errno)));
+  }
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    return absl::InternalError(absl::StrCat("fork: ", std::strerror(errno)));
+  }
+  if (pid == 0) {
+    close(fds[0]);
+    Child(fds[1], path, options);
+  }
+  close(fds[1]);
+  const auto deadline = Clock::now() + std::chrono::seconds(options.max_seconds);
+  std::string answer;
+  bool timed_out = false;
+  char buffer[1 << 16];
+  for (;;) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+    if (left <= 0) {
+      timed_out = true;
       break;
     }
+    pollfd p{fds[0], POLLIN, 0};
+    const int ready = poll(&p, 1, static_cast<int>(std::min<int64_t>(left, 1000)));
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready <= 0) continue;
+    const ssize_t r = read(fds[0], buffer, sizeof buffer);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) break;
+    answer.append(buffer, static_cast<size_t>(r));
   }
-  if (!found) return nullptr;
-  if (const aiTexture* embedded = scene.GetEmbeddedTexture(name.C_Str())) {
-    if (embedded->mHeight == 0) {  // compressed (PNG, JPEG): mWidth bytes
-      const cv::Mat bytes(1, int(embedded->mWidth), CV_8UC1,
-                          const_cast<aiTexel*>(embedded->pcData));
-      return Fit(cv::imdecode(bytes, cv::IMREAD_COLOR), side);
-    }
-    // Raw BGRA texels.
-    cv::Mat bgra(int(embedded->mHeight), int(embedded->mWidth), CV_8UC4,
-                 const_cast<aiTexel*>(embedded->pcData));
-    return Fit(bgra.clone(), side);
+  close(fds[0]);
+  if (timed_out) kill(pid, SIGKILL);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
-  std::error_code ec;
-  const fs::path file = fs::weakly_canonical(dir / name.C_Str(), ec);
-  const fs::path root = fs::weakly_canonical(dir.empty() ? "." : dir, ec);
-  const fs::path inside = file.lexically_relative(root);
-  if (ec || inside.empty() || *inside.begin() == "..") return nullptr;  // outside the folder
-  return Fit(cv::imread(file.string(), cv::IMREAD_COLOR), side);
-}
-
-// The material's diffuse colour as a one-texel texture (white when it has none).
-Texture MaterialColour(const aiMaterial& material) {
-  aiColor4D c(1, 1, 1, 1);
-  material.Get(AI_MATKEY_COLOR_DIFFUSE, c);
-  auto channel = [](float v) { return uint8_t(std::clamp(v, 0.f, 1.f) * 255.f + 0.5f); };
-  return FlatTexture(channel(c.b), channel(c.g), channel(c.r));
-}
-
-// Appends `mesh` to `out`: textured when it has a texture and coordinates, else coloured
-// per vertex (a palette texture of one texel per triangle), else in its material's colour.
-void AppendMesh(const aiScene& scene, const aiMesh& mesh, const fs::path& dir, int side,
-                Mesh* out) {
-  const aiMaterial& material = *scene.mMaterials[mesh.mMaterialIndex];
-  const Texture texture =
-      mesh.HasTextureCoords(0) ? MaterialTexture(scene, material, dir, side) : nullptr;
-  std::vector<const aiFace*> faces;
-  for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
-    if (mesh.mFaces[f].mNumIndices == 3) faces.push_back(&mesh.mFaces[f]);
+  if (timed_out) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": the model reader took over ",
+                                                   options.max_seconds, " s on this file"));
   }
-  if (faces.empty()) return;
-  auto position = [&](unsigned v) {
-    const aiVector3D& p = mesh.mVertices[v];
-    return Eigen::Vector3f(p.x, p.y, p.z);
-  };
-  const int texture_index = int(out->textures.size());
-  if (texture != nullptr || !mesh.HasVertexColors(0)) {
-    out->textures.push_back(texture != nullptr ? texture : MaterialColour(material));
-    const int base = int(out->positions.size());
-    for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
-      out->positions.push_back(position(v));
-      Eigen::Vector2f uv(0.5f, 0.5f);
-      if (texture != nullptr) {
-        const aiVector3D& t = mesh.mTextureCoords[0][v];
-        uv = Eigen::Vector2f(t.x, 1.f - t.y);  // Assimp's v points up; the image's down
-      }
-      out->uvs.push_back(uv);
-    }
-    for (const aiFace* f : faces) {
-      out->triangles.push_back(
-          {base + int(f->mIndices[0]), base + int(f->mIndices[1]), base + int(f->mIndices[2])});
-      out->tri_texture.push_back(texture_index);
-    }
-    return;
+  if (WIFSIGNALED(status)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": the model reader failed on this file (signal ", WTERMSIG(status),
+                     WTERMSIG(status) == SIGXCPU ? ": CPU time limit" : "", ")"));
   }
-  // Vertex colours: each triangle one texel of a palette, its vertices split off.
-  const int n = int(faces.size());
-  const int width = std::min(n, 1024), height = (n + width - 1) / width;
-  cv::Mat palette(height, width, CV_8UC3, cv::Scalar::all(0));
-  for (int i = 0; i < n; ++i) {
-    aiColor4D sum(0, 0, 0, 0);
-    for (int k = 0; k < 3; ++k) sum = sum + mesh.mColors[0][faces[i]->mIndices[k]];
-    auto channel = [](float v) { return uint8_t(std::clamp(v / 3.f, 0.f, 1.f) * 255.f + 0.5f); };
-    palette.at<cv::Vec3b>(i / width, i % width) =
-        cv::Vec3b(channel(sum.b), channel(sum.g), channel(sum.r));
-    const Eigen::Vector2f uv((i % width + 0.5f) / width, (i / width + 0.5f) / height);
-    const int base = int(out->positions.size());
-    for (int k = 0; k < 3; ++k) {
-      out->positions.push_back(position(faces[i]->mIndices[k]));
-      out->uvs.push_back(uv);
-    }
-    out->triangles.push_back({base, base + 1, base + 2});
-    out->tri_texture.push_back(texture_index);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": the model reader failed on this file (exit status ",
+                     WIFEXITED(status) ? WEXITSTATUS(status) : -1, ")"));
   }
-  out->textures.push_back(std::make_shared<const cv::Mat>(std::move(palette)));
+  return DecodeAnswer(answer, path, options);
 }
 
 }  // namespace
@@ -151,33 +260,18 @@ absl::StatusOr<Mesh> LoadModel(const std::string& path, const ModelOptions& opti
     return absl::InvalidArgumentError(absl::StrCat(path, ": a model file of at most ",
                                                    options.max_file_bytes >> 20, " MiB is read"));
   }
-  if (absl::Status s = dataset::CheckPlyHeader(path); !s.ok()) return s;
-  Assimp::Importer importer;
-  // Points and lines are dropped; node transforms are baked in (one model frame).
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
-                              aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene =
-      importer.ReadFile(path, aiProcess_Triangulate | aiProcess_PreTransformVertices |
-                                  aiProcess_SortByPType | aiProcess_ValidateDataStructure);
-  if (scene == nullptr || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
+  std::string extension = fs::path(path).extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string_view bare = std::string_view(extension).substr(extension.empty() ? 0 : 1);
+  if (std::find(std::begin(kModelFormats), std::end(kModelFormats), bare) ==
+      std::end(kModelFormats)) {
     return absl::InvalidArgumentError(
-        absl::StrCat(path, ": not a readable model: ", importer.GetErrorString()));
+        absl::StrCat(path, ": a model is read from .obj, .ply, .gltf or .glb"));
   }
-  size_t triangles = 0;
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) triangles += scene->mMeshes[m]->mNumFaces;
-  if (triangles > options.max_triangles) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": ", triangles,
-                                                   " triangles; a model of at most ",
-                                                   options.max_triangles, " is read"));
-  }
-  Mesh mesh;
-  const fs::path dir = fs::path(path).parent_path();
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    AppendMesh(*scene, *scene->mMeshes[m], dir, options.max_texture_side, &mesh);
-  }
-  if (mesh.triangles.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": the model has no triangle"));
-  }
+  if (absl::Status s = dataset::CheckPlyHeader(path); !s.ok()) return s;
+  absl::StatusOr<Mesh> read = ReadInChild(path, options);
+  if (!read.ok()) return read.status();
+  Mesh mesh = *std::move(read);
   for (const Eigen::Vector3f& p : mesh.positions) {
     if (!p.allFinite()) {
       return absl::InvalidArgumentError(absl::StrCat(path, ": a vertex is not a finite number"));

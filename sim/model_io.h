@@ -1,6 +1,8 @@
 // 3D models as users have them, read into a Mesh for rendering training views: PLY with
 // vertex colours (BOP and YCB models, phone scans), OBJ with an MTL and texture images (CAD
-// exports), glTF / GLB with embedded or external textures; anything else Assimp reads.
+// exports), glTF / GLB with embedded or external textures. Only these four formats are
+// read (by the file's extension; Assimp's other importers are dropped), and files the
+// model names (MTL, textures, glTF buffers) only from the model's folder.
 //
 //   absl::StatusOr<Mesh> mesh = LoadModel("cereal.obj", {.units = ModelUnits::kAuto});
 //
@@ -10,16 +12,21 @@
 // diffuse colour. The model's own frame is kept (poses are of the model frame), scaled to
 // metres.
 //
-// Model files are hostile input: a file over limits.max_file_bytes, a model over
-// limits.max_triangles, a PLY header that cannot be whole (dataset/model_points.h), a file
-// Assimp cannot read, or one without a triangle is refused with InvalidArgument naming the
-// file; textures are scaled down to limits.max_texture_side.
+// Model files are hostile input. Assimp reads them in a child process (fork) limited to
+// max_seconds of CPU and wall time and max_memory_bytes of address space; what it answers
+// is checked here (every count and index). A file over max_file_bytes, a model over
+// max_triangles, another extension, a PLY header that cannot be whole
+// (dataset/model_points.h), a file Assimp cannot read or dies on, one over the limits or
+// without a triangle, a vertex that is not finite: InvalidArgument naming the file.
+// Textures are scaled down to max_texture_side.
 //
-// Thread safety: reentrant.
+// Thread safety: reentrant. LoadModel forks: the child runs only Assimp and OpenCV's image
+// decoders (glibc's malloc is fork safe) and leaves with _exit.
 #ifndef SKIMAP_SIM_MODEL_IO_H_
 #define SKIMAP_SIM_MODEL_IO_H_
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -38,6 +45,8 @@ struct ModelOptions {
   size_t max_file_bytes = size_t{256} << 20;
   size_t max_triangles = 2'000'000;
   int max_texture_side = 2048;
+  int max_seconds = 120;                          // the reader's CPU and wall time
+  uint64_t max_memory_bytes = uint64_t{4} << 30;  // the reader's address space
 };
 
 // Parses "auto", "m" or "mm" (InvalidArgument naming `flag` otherwise).

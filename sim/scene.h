@@ -17,6 +17,7 @@
 #include "absl/status/status.h"
 #include "sim/mesh.h"
 #include "sim/objects.h"
+#include "sim/rasterizer.h"
 
 namespace skimap::sim {
 
@@ -68,6 +69,10 @@ struct SceneLayout {
 
 // A float drawn uniformly from [lo, hi) with the top 24 bits of one rng() draw.
 float Uniform(std::mt19937_64& rng, float lo, float hi);
+
+// A room's light drawn at random: from above at 40-70 degrees elevation, any azimuth,
+// ambient 0.35-0.55, diffuse 0.5-0.7, exposure 0.85-1.15, a slight colour tint.
+Lighting RandomLighting(std::mt19937_64& rng);
 
 // Builds a room from the spec; furniture sizes and object poses are drawn from rng.
 // REQUIRES: spec.objects <= objects.size(); room at least 3.5 x 3 m.

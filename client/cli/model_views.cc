@@ -36,6 +36,9 @@ absl::StatusOr<std::vector<v1::TrainingFrame>> ModelTrainingFrames(
   sim::TrainingViewOptions view_options;
   view_options.distances = options.distances;
   view_options.azimuths = options.azimuths;
+  view_options.clutter = options.effects.clutter;
+  view_options.lighting = options.effects.lighting;
+  view_options.sensor = options.effects.sensor;
   const std::vector<sim::TrainingView> views = sim::RenderTrainingViews(*mesh, K, view_options);
   if (views.empty()) {
     return absl::FailedPreconditionError(absl::StrCat(

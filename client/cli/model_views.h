@@ -14,15 +14,17 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "sim/training_views.h"
 #include "skimap/v1/objects.pb.h"
 
 namespace skimap::client {
 
 struct ModelViewOptions {
-  std::string units = "auto";    // auto, m or mm (sim::ParseModelUnits)
-  std::string camera;            // a BOP camera.json; "": a Kinect (525 px, 640x480)
-  std::vector<float> distances;  // metres; empty: the sim's training orbits' distance
-  int azimuths = 36;             // views per orbit
+  std::string units = "auto";        // auto, m or mm (sim::ParseModelUnits)
+  std::string camera;                // a BOP camera.json; "": a Kinect (525 px, 640x480)
+  std::vector<float> distances;      // metres; empty: the sim's training orbits' distance
+  int azimuths = 36;                 // views per orbit
+  sim::TrainingViewOptions effects;  // only its clutter, lighting and sensor are used
 };
 
 // Errors: the model's (NotFound, InvalidArgument naming the file), a bad --model_units or

@@ -8,10 +8,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
+#include "client/cli/model_files.h"
 #include "client/cli/model_views.h"
 #include "client/cli/training_frames.h"
 #include "client/object_client.h"
 #include "dataset/reader.h"
+#include "sim/training_views.h"
 
 ABSL_FLAG(int, object, 0, "objects train: train only this obj_id (0 = every train/ object)");
 ABSL_FLAG(std::string, detector, "", "objects train: ORB, SIFT, AKAZE or BRISK (default ORB)");
@@ -21,7 +23,9 @@ ABSL_FLAG(double, object_resolution, 0, "objects train: descriptor voxel in metr
 ABSL_FLAG(double, zoom_out, 0,
           "objects train: synthetic zoom-outs up to this factor (1 = off; 0 = the server's "
           "default)");
-ABSL_FLAG(bool, on_server, false, "objects train: the server reads DATASET from its disk");
+ABSL_FLAG(bool, on_server, false,
+          "objects train: the server reads DATASET from its disk; objects add: the model and "
+          "the files it names are uploaded and the server renders the views");
 ABSL_FLAG(std::string, model_units, "auto",
           "objects add: the model's units: m, mm (BOP models) or auto (mm when its bounding "
           "box's diagonal exceeds 10)");
@@ -34,6 +38,10 @@ ABSL_FLAG(std::string, view_distances, "",
 ABSL_FLAG(int, view_azimuths, 36,
           "objects add: views per orbit (evenly spaced azimuths; 3 orbits, at 10, 35 and 60 "
           "degrees)");
+ABSL_FLAG(std::string, view_effects, "clutter,lighting,sensor",
+          "objects add: what a camera adds to the rendered views, a comma list of clutter (a "
+          "random background), lighting (a random light per view) and sensor (colour noise, "
+          "Kinect depth noise); none: perfect renders on black");
 ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
 ABSL_FLAG(int, tree_depth, 0,
@@ -104,6 +112,47 @@ absl::StatusOr<v1::Object> StreamObject(ObjectClient& client, const TrainingObje
   });
 }
 
+// `objects add MODEL --on_server`: the model and the files it names are uploaded; the
+// server renders the views (AddObjectModel) and trains.
+absl::Status AddModelOnServer(ObjectClient& client, const std::string& model,
+                              const ModelViewOptions& options) {
+  absl::StatusOr<ModelFileSet> set = ModelFiles(model);
+  if (!set.ok()) return set.status();
+  for (const std::string& name : set->skipped) {
+    std::fprintf(stderr, "warning: %s names %s, which is not a file in its folder: not sent\n",
+                 model.c_str(), name.c_str());
+  }
+  v1::AddObjectModelRequest header;
+  header.set_obj_id(static_cast<uint32_t>(absl::GetFlag(FLAGS_object)));
+  header.set_display_name(absl::GetFlag(FLAGS_name));
+  header.set_model(set->files[0].name);
+  v1::ModelViews* views = header.mutable_views();
+  views->set_units(options.units);
+  views->set_azimuths(static_cast<uint32_t>(options.azimuths));
+  for (float d : options.distances) views->add_distances(d);
+  views->set_effects(absl::GetFlag(FLAGS_view_effects).empty() ? "none"
+                                                               : absl::GetFlag(FLAGS_view_effects));
+  if (!options.camera.empty()) {
+    absl::StatusOr<dataset::CameraInfo> camera = dataset::LoadBopCamera(options.camera);
+    if (!camera.ok()) return camera.status();
+    v1::CameraIntrinsics* k = views->mutable_intrinsics();
+    k->set_fx(camera->K.fx);
+    k->set_fy(camera->K.fy);
+    k->set_cx(camera->K.cx);
+    k->set_cy(camera->K.cy);
+    k->set_width(camera->K.width);
+    k->set_height(camera->K.height);
+  }
+  *header.mutable_params() = ParamsFromFlags();
+  std::fprintf(stderr, "uploading %zu file(s) of %s...\n", set->files.size(), model.c_str());
+  absl::StatusOr<v1::Operation> op = client.AddObjectModel(header, set->files);
+  if (!op.ok()) return op.status();
+  op = client.WaitDone(op->name(), PrintProgress);
+  if (!op.ok()) return op.status();
+  PrintObject(op->object());
+  return absl::OkStatus();
+}
+
 // `objects add MODEL --object=ID`: training views rendered from the model file, streamed
 // as `objects train` streams a sequence's.
 absl::Status AddModel(ObjectClient& client, const std::string& model) {
@@ -124,6 +173,12 @@ absl::Status AddModel(ObjectClient& client, const std::string& model) {
     }
     options.distances.push_back(metres);
   }
+  if (absl::Status st = sim::ParseViewEffects(absl::GetFlag(FLAGS_view_effects), "--view_effects",
+                                              &options.effects);
+      !st.ok()) {
+    return st;
+  }
+  if (absl::GetFlag(FLAGS_on_server)) return AddModelOnServer(client, model, options);
   std::fprintf(stderr, "rendering training views of %s...\n", model.c_str());
   absl::StatusOr<std::vector<v1::TrainingFrame>> frames = ModelTrainingFrames(model, options);
   if (!frames.ok()) return frames.status();

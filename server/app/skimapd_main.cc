@@ -81,6 +81,12 @@ ABSL_FLAG(int, http_max_event_streams, 4,
           "--http_threads; more: 429");
 ABSL_FLAG(std::string, dataset_root, "",
           "directory under which TrainObjectFromDataset may read datasets; empty: off");
+ABSL_FLAG(std::string, model_renderer, "default",
+          "skimap-model-views, which renders AddObjectModel's uploaded 3D models in a process "
+          "of its own; \"default\": the one beside this skimapd binary, if any; empty: "
+          "AddObjectModel off");
+ABSL_FLAG(int, model_render_timeout_s, 600,
+          "AddObjectModel: seconds one model may take to read and render (then it is killed)");
 ABSL_FLAG(std::string, data_dir, "out/skimapd-data",
           "directory for server data (created if missing): maps.sqlite holds every map (frame "
           "journal and snapshots, reloaded at start), objects.sqlite the object database");
@@ -141,6 +147,21 @@ ABSL_FLAG(int64_t, journal_retain_mb, 1024,
           "retention policy: once snapshotted, the oldest frame records of a map are pruned "
           "from the journal while its frame records exceed this many MiB (UpdatePoses on a "
           "pruned frame answers FAILED_PRECONDITION)");
+
+namespace {
+
+// --model_renderer: "default" is skimap-model-views beside this binary ("" if it is not
+// there: AddObjectModel then answers FAILED_PRECONDITION).
+std::string ModelRendererPath(const std::string& flag) {
+  if (flag != "default") return flag;
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return "";
+  const std::filesystem::path beside = self.parent_path() / "skimap-model-views";
+  return std::filesystem::is_regular_file(beside, ec) ? beside.string() : "";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   skimap::server::TuneMallocForServer();
@@ -230,6 +251,10 @@ int main(int argc, char** argv) {
   options.maps.max_frame_pixels = uint64_t(absl::GetFlag(FLAGS_max_frame_pixels));
   options.objects.dataset_root = absl::GetFlag(FLAGS_dataset_root);
   options.objects.db_path = (std::filesystem::path(data_dir) / "objects.sqlite").string();
+  options.objects.model_renderer.binary = ModelRendererPath(absl::GetFlag(FLAGS_model_renderer));
+  options.objects.model_renderer.timeout_seconds =
+      std::max(1, absl::GetFlag(FLAGS_model_render_timeout_s));
+  options.objects.model_scratch_dir = (std::filesystem::path(data_dir) / "model-uploads").string();
   options.objects.threads = std::max(1, absl::GetFlag(FLAGS_worker_threads));
   options.maps_db_path = (std::filesystem::path(data_dir) / "maps.sqlite").string();
   // With a PostgreSQL --store this server is a node of a fleet (libpq's messages name

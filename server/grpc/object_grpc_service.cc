@@ -59,6 +59,48 @@ class TrainObjectReactor final : public grpc::ServerReadReactor<v1::TrainObjectR
   std::shared_ptr<ObjectService::TrainingSession> session_;
 };
 
+// AddObjectModel: each message's file piece is written on gRPC's thread (disk writes of at
+// most a message's size) before the next read; the stream's end starts the operation.
+class AddObjectModelReactor final : public grpc::ServerReadReactor<v1::AddObjectModelRequest> {
+ public:
+  AddObjectModelReactor(ObjectService* core, CallbackServerContext* ctx, v1::Operation* response)
+      : core_(core), ctx_(ctx), response_(response) {
+    StartRead(&request_);
+  }
+  void OnReadDone(bool ok) override {
+    if (!ok) {
+      if (ctx_->IsCancelled()) return Finish(grpc::Status::CANCELLED);
+      if (session_ == nullptr) {
+        return Finish(
+            grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "obj_id: the stream sent no message"));
+      }
+      absl::StatusOr<v1::Operation> op = core_->FinishModelUpload(std::move(session_));
+      if (op.ok()) *response_ = *std::move(op);
+      return Finish(ToGrpcStatus(op.status()));
+    }
+    if (session_ == nullptr) {
+      absl::StatusOr<std::shared_ptr<ObjectService::ModelSession>> s =
+          core_->StartModelUpload(request_);
+      if (!s.ok()) return Finish(ToGrpcStatus(s.status()));
+      session_ = *std::move(s);
+    }
+    if (absl::Status s = core_->AddModelPiece(*session_, request_); !s.ok()) {
+      session_.reset();
+      return Finish(ToGrpcStatus(s));
+    }
+    request_.Clear();
+    StartRead(&request_);
+  }
+  void OnDone() override { delete this; }
+
+ private:
+  ObjectService* const core_;
+  CallbackServerContext* const ctx_;
+  v1::Operation* const response_;
+  v1::AddObjectModelRequest request_;
+  std::shared_ptr<ObjectService::ModelSession> session_;
+};
+
 // WaitOperation: finished by the core's callback or by cancellation, whichever is first;
 // the shared state outlives the reactor so a late callback finds it finished.
 class WaitOperationReactor final : public ServerUnaryReactor {
@@ -104,6 +146,14 @@ grpc::ServerReadReactor<v1::TrainObjectRequest>* GrpcObjectService::TrainObject(
     return new RefusedCall<grpc::ServerReadReactor<v1::TrainObjectRequest>>(s);
   }
   return new TrainObjectReactor(core_, ctx, response);
+}
+
+grpc::ServerReadReactor<v1::AddObjectModelRequest>* GrpcObjectService::AddObjectModel(
+    CallbackServerContext* ctx, v1::Operation* response) {
+  if (absl::Status s = Allow(ctx, auth::MethodRole("ObjectService/AddObjectModel")); !s.ok()) {
+    return new RefusedCall<grpc::ServerReadReactor<v1::AddObjectModelRequest>>(s);
+  }
+  return new AddObjectModelReactor(core_, ctx, response);
 }
 
 ServerUnaryReactor* GrpcObjectService::TrainObjectFromDataset(

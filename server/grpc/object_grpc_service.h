@@ -5,7 +5,9 @@
 // DeleteObject, BuildClassifier, GetClassifier, ClassifyImage, GetOperation (unary);
 // TrainObject (client stream: reads the next message only after the previous frame was
 // fused, so a fast client is held back by flow control); WaitOperation (unary, answered
-// when the operation is done or on timeout; cancellation answers at once).
+// when the operation is done or on timeout; cancellation answers at once); AddObjectModel
+// (client stream: each file piece is written before the next read; the answer is the
+// operation that renders and trains).
 //
 // Thread safety: stateless apart from the core pointer; safe for concurrent calls.
 #ifndef SERVER_GRPC_OBJECT_GRPC_SERVICE_H_
@@ -28,6 +30,8 @@ class GrpcObjectService final : public v1::ObjectService::CallbackService {
 
   grpc::ServerReadReactor<v1::TrainObjectRequest>* TrainObject(grpc::CallbackServerContext* ctx,
                                                                v1::Object* response) override;
+  grpc::ServerReadReactor<v1::AddObjectModelRequest>* AddObjectModel(
+      grpc::CallbackServerContext* ctx, v1::Operation* response) override;
   grpc::ServerUnaryReactor* TrainObjectFromDataset(grpc::CallbackServerContext* ctx,
                                                    const v1::TrainObjectFromDatasetRequest* request,
                                                    v1::Operation* response) override;

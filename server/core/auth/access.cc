@@ -26,6 +26,7 @@ const MethodAccess kMethods[] = {
     {"MapService/GetLabelVoxels", Role::kRead},
     {"ObjectService/TrainObject", Role::kAdmin},
     {"ObjectService/TrainObjectFromDataset", Role::kAdmin},
+    {"ObjectService/AddObjectModel", Role::kAdmin},
     {"ObjectService/ListObjects", Role::kRead},
     {"ObjectService/GetObject", Role::kRead},
     {"ObjectService/DeleteObject", Role::kAdmin},

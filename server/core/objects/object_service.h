@@ -18,12 +18,14 @@
 #ifndef SERVER_CORE_OBJECTS_OBJECT_SERVICE_H_
 #define SERVER_CORE_OBJECTS_OBJECT_SERVICE_H_
 
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <string>
 
 #include "absl/status/statusor.h"
 #include "server/core/common/work_queue.h"
+#include "server/core/objects/model_renderer.h"
 #include "server/core/objects/object_registry.h"
 #include "server/core/objects/operation_table.h"
 #include "skimap/v1/objects.pb.h"
@@ -40,6 +42,11 @@ class ObjectService {
     // TrainObjectFromDataset reads datasets on the server's disk only under this directory;
     // "" (the default) turns it off (PermissionDenied). See dataset_root.h.
     std::string dataset_root;
+    // AddObjectModel: the renderer (binary "" turns the call off: FailedPrecondition) and
+    // the folder uploads are written to (each in a folder of its own, removed after).
+    ModelRendererOptions model_renderer;
+    std::string model_scratch_dir;
+    int max_model_uploads = 4;  // streams at a time; more: RESOURCE_EXHAUSTED
   };
   // Opens the registry (loads the stored objects and classifier).
   static absl::StatusOr<std::unique_ptr<ObjectService>> Create(const Options& options);
@@ -60,6 +67,16 @@ class ObjectService {
   // frame contributed a descriptor.
   void FinishTraining(std::shared_ptr<TrainingSession> session,
                       std::function<void(absl::StatusOr<v1::Object>)> done);
+
+  // ---- AddObjectModel (client stream) ----
+  struct ModelSession;  // one streamed model; opaque
+  // Validates the first message (obj_id, model, views, params) and opens the upload.
+  absl::StatusOr<std::shared_ptr<ModelSession>> StartModelUpload(
+      const v1::AddObjectModelRequest& first);
+  // Writes the message's file piece (if any); InvalidArgument "file.*" past the limits.
+  absl::Status AddModelPiece(ModelSession& session, const v1::AddObjectModelRequest& request);
+  // Starts the operation (render, train, store) that owns the upload from now on.
+  absl::StatusOr<v1::Operation> FinishModelUpload(std::shared_ptr<ModelSession> session);
 
   // ---- Unary methods ----
   absl::StatusOr<v1::Operation> TrainObjectFromDataset(
@@ -88,6 +105,7 @@ class ObjectService {
   const Options options_;
   std::unique_ptr<ObjectRegistry> registry_;
   OperationTable operations_;
+  std::atomic<int> model_uploads_{0};  // open ModelSessions
   // Declared last: destroyed (drained) first, while the registry and table still exist.
   WorkQueue training_worker_;
   WorkQueue job_worker_;

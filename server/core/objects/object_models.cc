@@ -1,0 +1,113 @@
+// ObjectService: objects trained from their 3D models (AddObjectModel). The upload is
+// written to a private folder, skimap-model-views renders it into a BOP scene there
+// (model_renderer.h), and the scene trains as TrainObjectFromDataset's do.
+#include <filesystem>
+
+#include "absl/strings/str_cat.h"
+#include "base/echo.h"
+#include "perception/objects/training.h"
+#include "server/core/objects/model_upload.h"
+#include "server/core/objects/object_codec.h"
+#include "server/core/objects/object_service.h"
+
+namespace skimap::server {
+namespace fs = std::filesystem;
+
+struct ObjectService::ModelSession {
+  ModelSession(std::atomic<int>* open) : open(open) {}
+  ~ModelSession() { --*open; }
+  std::atomic<int>* const open;
+  v1::AddObjectModelRequest first;  // without its file piece
+  objects::ObjectDatabaseParams params;
+  std::unique_ptr<ModelUpload> upload;
+};
+
+absl::StatusOr<std::shared_ptr<ObjectService::ModelSession>> ObjectService::StartModelUpload(
+    const v1::AddObjectModelRequest& first) {
+  if (options_.model_renderer.binary.empty()) {
+    return absl::FailedPreconditionError(
+        "model: this server renders no models (skimapd --model_renderer); train with "
+        "`skimap objects add MODEL`, which renders on the client");
+  }
+  if (absl::Status s = CheckObjId(first.obj_id()); !s.ok()) return s;
+  if (absl::Status s = registry_->CheckNew(static_cast<int>(first.obj_id())); !s.ok()) return s;
+  if (absl::Status s = CheckModelFileName(first.model(), "model"); !s.ok()) return s;
+  if (absl::Status s = CheckModelViews(first.views()); !s.ok()) return s;
+  absl::StatusOr<objects::ObjectDatabaseParams> params = TrainingParamsFor(first.params());
+  if (!params.ok()) return params.status();
+  if (++model_uploads_ > options_.max_model_uploads) {
+    --model_uploads_;
+    return absl::ResourceExhaustedError(
+        absl::StrCat("model uploads: ", options_.max_model_uploads, " are running, retry later"));
+  }
+  auto session = std::make_shared<ModelSession>(&model_uploads_);
+  absl::StatusOr<std::unique_ptr<ModelUpload>> upload =
+      ModelUpload::Create(options_.model_scratch_dir, {});
+  if (!upload.ok()) return upload.status();
+  session->upload = *std::move(upload);
+  session->first = first;
+  session->first.clear_file();
+  session->params = *std::move(params);
+  return session;
+}
+
+absl::Status ObjectService::AddModelPiece(ModelSession& session,
+                                          const v1::AddObjectModelRequest& request) {
+  if (!request.has_file()) return absl::OkStatus();
+  return session.upload->Add(request.file());
+}
+
+absl::StatusOr<v1::Operation> ObjectService::FinishModelUpload(
+    std::shared_ptr<ModelSession> session) {
+  const v1::AddObjectModelRequest& first = session->first;
+  if (!session->upload->Has(first.model())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("model: ", Echo(first.model()), " is not among the files sent"));
+  }
+  const std::string op = operations_.Start("AddObjectModel");
+  const bool queued = job_worker_.TrySubmit([this, op, session] {
+    const v1::AddObjectModelRequest& first = session->first;
+    const int obj_id = static_cast<int>(first.obj_id());
+    v1::OperationProgress pr;
+    pr.set_stage("rendering");
+    operations_.SetProgress(op, pr);
+    const fs::path scene = session->upload->dir() / "views";
+    absl::Status status = RenderModelViews(options_.model_renderer, session->upload->dir().string(),
+                                           first.model(), first.views(), obj_id, "views");
+    std::string name = first.display_name();
+    if (name.empty()) name = fs::path(first.model()).stem().string();
+    objects::ObjectModel model;
+    if (status.ok()) {
+      objects::DatasetTrainingOptions o;
+      o.threads = options_.threads;
+      o.progress = [&](const objects::BuildProgress& b) {
+        v1::OperationProgress p;
+        p.set_stage(b.stage);
+        p.set_done(b.done);
+        p.set_total(b.total);
+        const double f = b.total > 0 ? double(b.done) / double(b.total) : 0;
+        p.set_fraction(b.stage == "frames" ? 0.1 + 0.7 * f : 0.8 + 0.15 * f);
+        operations_.SetProgress(op, p);
+      };
+      absl::StatusOr<objects::TrainedObject> trained =
+          objects::TrainObject(scene.string(), obj_id, name, session->params, o);
+      status = trained.status();
+      if (status.ok()) {
+        model = trained->model;
+        status = registry_->Add(*std::move(trained), session->params);
+      }
+    }
+    const objects::ObjectDatabaseParams params = session->params;
+    session->upload.reset();  // the folder goes before the operation says it is done
+    operations_.Finish(op, status, [&](v1::Operation* out) {
+      *out->mutable_object() = ToApiObject(model, params, false);
+    });
+  });
+  if (!queued) {
+    operations_.Finish(op, absl::ResourceExhaustedError("job queue full"), nullptr);
+    return absl::ResourceExhaustedError("jobs: queue full, retry later");
+  }
+  return operations_.Get(op);
+}
+
+}  // namespace skimap::server
