@@ -5,7 +5,8 @@
 //
 // Usage: skimap-model-views --model FILE --out SCENE_DIR --obj_id N [--units auto|m|mm]
 //          [--camera fx,fy,cx,cy,width,height] [--distances D,...] [--azimuths N]
-//          [--effects clutter,lighting,sensor|none] [--max_memory_mb N] [--max_cpu_seconds N]
+//          [--effects clutter,lighting,sensor|none (default clutter)] [--max_memory_mb N]
+//          [--max_cpu_seconds N]
 // Exit status: 0 written; 2 the model or an option is refused (one line on stderr, naming
 // the file as given); 1 anything else.
 #include <sys/resource.h>
@@ -107,8 +108,7 @@ int Run(const std::map<std::string, std::string>& args) {
     if (!(d > 0.05 && d < 100)) return Refuse(absl::InvalidArgumentError("distances: 0.05-100 m"));
     options.distances.push_back(static_cast<float>(d));
   }
-  if (absl::Status s =
-          sim::ParseViewEffects(get("effects", "clutter,lighting,sensor"), "effects", &options);
+  if (absl::Status s = sim::ParseViewEffects(get("effects", "clutter"), "effects", &options);
       !s.ok()) {
     return Refuse(s);
   }

@@ -38,10 +38,11 @@ ABSL_FLAG(std::string, view_distances, "",
 ABSL_FLAG(int, view_azimuths, 36,
           "objects add: views per orbit (evenly spaced azimuths; 3 orbits, at 10, 35 and 60 "
           "degrees)");
-ABSL_FLAG(std::string, view_effects, "clutter,lighting,sensor",
+ABSL_FLAG(std::string, view_effects, "clutter",
           "objects add: what a camera adds to the rendered views, a comma list of clutter (a "
           "random background), lighting (a random light per view) and sensor (colour noise, "
-          "Kinect depth noise); none: perfect renders on black");
+          "Kinect depth noise); none: perfect renders on black; default: clutter, the best on the "
+          "validation render (docs/recognition.md)");
 ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
 ABSL_FLAG(int, tree_depth, 0,

@@ -103,10 +103,15 @@ TEST_F(ModelIoTest, TrainingViewsOrbitTheModelWithItsPose) {
   }
 }
 
-// By default a view looks like a camera's: the model in front of a cluttered background,
-// lit by a light of its own, with sensor noise; the mask and pose are the perfect render's.
-TEST_F(ModelIoTest, DefaultViewsPutTheModelInACameraLikeScene) {
-  TrainingViewOptions few{.elevations_deg = {35}, .azimuths = 6};
+// With every effect a view looks like a camera's: the model in front of a cluttered
+// background, lit by a light of its own, with sensor noise; the mask and pose are the
+// perfect render's. The default is clutter alone (chosen on validation renders).
+TEST_F(ModelIoTest, ViewEffectsPutTheModelInACameraLikeScene) {
+  const TrainingViewOptions defaults;
+  EXPECT_TRUE(defaults.clutter);
+  EXPECT_FALSE(defaults.lighting);
+  EXPECT_FALSE(defaults.sensor);
+  TrainingViewOptions few{.elevations_deg = {35}, .azimuths = 6, .lighting = true, .sensor = true};
   const std::vector<TrainingView> plain = [&] {
     TrainingViewOptions o = kPlain;
     o.elevations_deg = few.elevations_deg;

@@ -17,6 +17,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "base/echo.h"
 
 extern char** environ;
@@ -48,10 +49,12 @@ absl::Status CheckModelViews(const v1::ModelViews& v) {
       return absl::InvalidArgumentError("views.distances: each 0.05-100 metres");
     }
   }
-  for (char c : v.effects()) {
-    if (!(std::islower(static_cast<unsigned char>(c)) || c == ',')) {
-      return absl::InvalidArgumentError(
-          "views.effects: a comma list of clutter, lighting, sensor, or none");
+  // The renderer parses the list (sim::ParseViewEffects); checked here too, so that the
+  // stream is refused before any upload.
+  for (absl::string_view e : absl::StrSplit(v.effects(), ',', absl::SkipWhitespace())) {
+    if (e != "clutter" && e != "lighting" && e != "sensor" && e != "none") {
+      return absl::InvalidArgumentError(absl::StrCat("views.effects: ", Echo(std::string(e)),
+                                                     " is not clutter, lighting, sensor or none"));
     }
   }
   if (v.has_intrinsics()) {

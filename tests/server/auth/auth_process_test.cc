@@ -218,7 +218,7 @@ TEST_F(AuthProcessTest, EveryGrpcHandlerAsksTheRoleOfItsAccessTableEntry) {
       ++checked;
     }
   }
-  EXPECT_EQ(checked, 28);  // 18 MapService + 10 ObjectService methods
+  EXPECT_EQ(checked, 29);  // 18 MapService + 11 ObjectService methods
 }
 
 TEST_F(AuthProcessTest, HealthNeedsNoToken) {

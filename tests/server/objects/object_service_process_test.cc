@@ -1,5 +1,6 @@
 // `skimap objects` against a real skimapd process: train one sim object from the CLI
-// (frames streamed), list it, and see it again after restarting skimapd on its data dir.
+// (frames streamed), list it, and see it again after restarting skimapd on its data dir;
+// objects from their 3D models, rendered on the client or uploaded to the server.
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -9,8 +10,10 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 
 #include "absl/strings/str_cat.h"
+#include "client/object_client.h"
 #include "tests/common/free_port.h"
 #include "tests/common/spawn.h"
 #include "tests/perception/objects/sim_data.h"
@@ -116,6 +119,81 @@ TEST(ObjectsCliTest, AddTrainsAnObjectFromItsTexturedModel) {
   EXPECT_NE(out.find("frames   36"), std::string::npos) << out;  // 3 orbits x 12
   ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects ls"), &out), 0);
   EXPECT_EQ(out.find("objects/9"), std::string::npos) << out;
+  Stop(pid);
+  pid = 0;
+}
+
+// `objects add MODEL --on_server`: the OBJ, its MTL and its texture are uploaded and the
+// server renders and trains (AddObjectModel). A model the reader dies on (Assimp aborts on
+// this PLY) fails its operation by name and nothing else; hostile names and a missing model
+// file are refused by field; the uploads leave nothing behind.
+TEST(ObjectsCliTest, AddOnServerRendersTheUploadedModelInAProcessOfItsOwn) {
+  const std::string mini = objects::testing::MiniDataset();
+  const std::string temp = objects::testing::TempDir();
+  const std::string data = temp + "/data_upload";
+  const std::string server = absl::StrCat("127.0.0.1:", FreePort());
+  pid_t pid = StartSkimapd(server, data);
+  ASSERT_GT(pid, 0);
+  struct Reaper {
+    pid_t* pid;
+    ~Reaper() {
+      if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
+    }
+  } reaper{&pid};
+  std::string out;
+  ASSERT_EQ(LsWhenUp(server, &out), 0);
+  const std::string model = mini + "/models/textured/obj_000001.obj";
+  ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects add ", model,
+                             " --object=6 --on_server --view_azimuths=3"),
+                &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("objects/6"), std::string::npos) << out;
+  EXPECT_NE(out.find("frames    9"), std::string::npos) << out;  // 3 orbits x 3
+
+  auto client = client::ObjectClient::Connect(server);
+  v1::AddObjectModelRequest header;
+  header.set_obj_id(7);
+  header.set_model("abort.ply");
+  const std::string hostile = temp + "/abort.ply";
+  {
+    std::ifstream seed(std::string(SKIMAP_FUZZ_CORPUS) + "/model_file/assimp_abort.ply",
+                       std::ios::binary);
+    ASSERT_TRUE(seed);
+    seed.get();  // the fuzz target's control byte
+    std::ofstream(hostile, std::ios::binary) << seed.rdbuf();
+  }
+  absl::StatusOr<v1::Operation> op = client->AddObjectModel(header, {{"abort.ply", hostile}});
+  ASSERT_TRUE(op.ok()) << op.status();
+  absl::StatusOr<v1::Operation> done = client->WaitDone(op->name(), nullptr);
+  EXPECT_EQ(done.status().code(), absl::StatusCode::kInvalidArgument) << done.status();
+  EXPECT_NE(done.status().message().find("abort.ply"), std::string::npos) << done.status();
+
+  for (const char* name : {"../escape.ply", "/etc/passwd", "a/./b.ply", "bad name.ply", ""}) {
+    header.set_model("model.ply");
+    op = client->AddObjectModel(header, {{name, hostile}});
+    EXPECT_EQ(op.status().code(), absl::StatusCode::kInvalidArgument) << name;
+    EXPECT_NE(op.status().message().find("file.name"), std::string::npos) << op.status();
+  }
+  header.set_model("model.ply");
+  header.mutable_views()->set_effects("clutter,fog");
+  op = client->AddObjectModel(header, {{"model.ply", hostile}});
+  EXPECT_EQ(op.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(op.status().message().find("views.effects"), std::string::npos) << op.status();
+  header.mutable_views()->clear_effects();
+  header.set_model("missing.obj");
+  op = client->AddObjectModel(header, {{"abort.ply", hostile}});
+  EXPECT_EQ(op.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(op.status().message().rfind("model: ", 0), 0u) << op.status();
+  EXPECT_NE(op.status().message().find("missing.obj"), std::string::npos) << op.status();
+  header.set_obj_id(6);  // trained above
+  header.set_model(std::string(300, 'a'));
+  EXPECT_EQ(client->AddObjectModel(header, {}).status().code(), absl::StatusCode::kAlreadyExists);
+
+  ASSERT_EQ(Cli(absl::StrCat("--server=", server, " objects ls"), &out), 0);
+  EXPECT_NE(out.find("objects/6"), std::string::npos) << out;
+  EXPECT_EQ(out.find("objects/7"), std::string::npos) << out;
+  EXPECT_TRUE(std::filesystem::is_empty(data + "/model-uploads"));
   Stop(pid);
   pid = 0;
 }
