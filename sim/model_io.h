@@ -20,8 +20,11 @@
 // without a triangle, a vertex that is not finite: InvalidArgument naming the file.
 // Textures are scaled down to max_texture_side.
 //
-// Thread safety: reentrant. LoadModel forks: the child runs only Assimp and OpenCV's image
-// decoders (glibc's malloc is fork safe) and leaves with _exit.
+// Thread safety: reentrant, but LoadModel forks: call it before the process starts other
+// threads (a gRPC channel's, say), as `skimap objects add` and skimap-model-views do; a
+// lock another thread held at the fork stays held in the child (seen: a hang under ASan
+// with a gRPC client open). The child runs only Assimp and OpenCV's image decoders and
+// leaves with _exit.
 #ifndef SKIMAP_SIM_MODEL_IO_H_
 #define SKIMAP_SIM_MODEL_IO_H_
 

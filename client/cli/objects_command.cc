@@ -156,7 +156,10 @@ absl::Status AddModelOnServer(ObjectClient& client, const std::string& model,
 
 // `objects add MODEL --object=ID`: training views rendered from the model file, streamed
 // as `objects train` streams a sequence's.
-absl::Status AddModel(ObjectClient& client, const std::string& model) {
+// The model is read and rendered before the client connects: sim::LoadModel forks, and
+// gRPC's threads must not exist yet (model_io.h).
+absl::Status AddModel(const std::string& server, const Connection& connection,
+                      const std::string& model) {
   const int id = absl::GetFlag(FLAGS_object);
   if (id <= 0) return absl::InvalidArgumentError("objects add needs --object=ID (1..999999)");
   const int azimuths = absl::GetFlag(FLAGS_view_azimuths);
@@ -179,10 +182,14 @@ absl::Status AddModel(ObjectClient& client, const std::string& model) {
       !st.ok()) {
     return st;
   }
-  if (absl::GetFlag(FLAGS_on_server)) return AddModelOnServer(client, model, options);
+  if (absl::GetFlag(FLAGS_on_server)) {
+    return AddModelOnServer(*ObjectClient::Connect(server, {.connection = connection}), model,
+                            options);
+  }
   std::fprintf(stderr, "rendering training views of %s...\n", model.c_str());
   absl::StatusOr<std::vector<v1::TrainingFrame>> frames = ModelTrainingFrames(model, options);
   if (!frames.ok()) return frames.status();
+  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server, {.connection = connection});
   v1::TrainObjectRequest header;
   header.set_obj_id(id);
   header.set_display_name(absl::GetFlag(FLAGS_name).empty() ? fs::path(model).stem().string()
@@ -190,7 +197,7 @@ absl::Status AddModel(ObjectClient& client, const std::string& model) {
   *header.mutable_params() = ParamsFromFlags();
   size_t next = 0;
   absl::StatusOr<v1::Object> trained =
-      client.TrainObject(header, [&]() -> absl::StatusOr<std::optional<v1::TrainingFrame>> {
+      client->TrainObject(header, [&]() -> absl::StatusOr<std::optional<v1::TrainingFrame>> {
         if (next == frames->size()) {
           std::fprintf(stderr, "\rtraining objects/%d: %zu views sent, mean shift...\n", id,
                        frames->size());
@@ -294,8 +301,12 @@ absl::Status TrainAndBuild(const std::string& server, const std::string& dataset
 
 int RunObjectsCommand(const std::string& server, const std::vector<std::string>& args,
                       const Connection& connection) {
-  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server, {.connection = connection});
   const std::string verb = args.size() > 2 ? args[2] : "ls";
+  if (verb == "add") {  // connects after rendering
+    if (args.size() < 4) return Fail(absl::InvalidArgumentError("objects add needs a MODEL file"));
+    return Exit(AddModel(server, connection, args[3]));
+  }
+  std::unique_ptr<ObjectClient> client = ObjectClient::Connect(server, {.connection = connection});
   if (verb == "ls") {
     absl::StatusOr<std::vector<v1::Object>> objects = client->ListAllObjects();
     if (!objects.ok()) return Fail(objects.status());
@@ -313,10 +324,6 @@ int RunObjectsCommand(const std::string& server, const std::vector<std::string>&
   if (verb == "train") {
     if (args.size() < 4) return Fail(absl::InvalidArgumentError("objects train needs a DATASET"));
     return Exit(Train(*client, args[3], /*keep_trained=*/false));
-  }
-  if (verb == "add") {
-    if (args.size() < 4) return Fail(absl::InvalidArgumentError("objects add needs a MODEL file"));
-    return Exit(AddModel(*client, args[3]));
   }
   if (verb == "rm" || verb == "info") {
     absl::StatusOr<std::string> name = ObjectArg(args);

@@ -3,7 +3,9 @@
 //
 // Input: one control byte choosing the extension (obj, ply, gltf, glb), then the file's
 // bytes, written to a file of that name in a private folder (Assimp reads by path). The
-// limits are small (1 MiB, 20 000 triangles, 64-pixel textures) so a unit stays fast.
+// limits are small (1 MiB, 20 000 triangles, 64-pixel textures, 5 s for the reader, on
+// which Assimp loops on some files) so a unit stays fast. The reader runs in a child
+// process as in production; libFuzzer sees only this process's coverage.
 // Invariants: a model that loads has a triangle, finite vertices, a texture index per
 // triangle within its textures and texture coordinates per vertex; an error names the file.
 #include <unistd.h>
@@ -30,8 +32,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const fs::path path = dir / (std::string("model.") + kExtensions[in.U8() % 4]);
   const std::string_view bytes = in.Rest();
   std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), bytes.size());
-  absl::StatusOr<sim::Mesh> mesh = sim::LoadModel(
-      path.string(), {.max_file_bytes = 1 << 20, .max_triangles = 20000, .max_texture_side = 64});
+  absl::StatusOr<sim::Mesh> mesh = sim::LoadModel(path.string(), {.max_file_bytes = 1 << 20,
+                                                                  .max_triangles = 20000,
+                                                                  .max_texture_side = 64,
+                                                                  .max_seconds = 5});
   fs::remove(path);
   if (!mesh.ok()) {
     if (mesh.status().message().find(path.string()) == std::string::npos) {
