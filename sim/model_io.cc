@@ -149,17 +149,6 @@ absl::StatusOr<Mesh> DecodeAnswer(std::string_view bytes, const std::string& pat
   return mesh;
 }
 
-bool SanitizerBuild() {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-  return true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-  return true;
-#endif
-#endif
-  return false;
-}
-
 // The child: limits itself, reads, writes its answer, exits without running destructors
 // or atexit handlers of the parent's state.
 [[noreturn]] void Child(int fd, const std::string& path, const ModelOptions& options) {
@@ -167,12 +156,8 @@ bool SanitizerBuild() {
   // installed (libFuzzer's) does not report them as this process's crash. Memory errors
   // keep the sanitizers' handlers.
   signal(SIGABRT, SIG_DFL);
-  const rlim_t cpu = static_cast<rlim_t>(std::max(1, options.max_seconds));
-  const rlimit cpu_limit{cpu, cpu};
-  setrlimit(RLIMIT_CPU, &cpu_limit);
-  if (!SanitizerBuild()) {  // sanitizers reserve terabytes of address space up front
-    const rlimit memory{options.max_memory_bytes, options.max_memory_bytes};
-    setrlimit(RLIMIT_AS, &memory);
+  if (!LimitThisProcess(std::max(1, options.max_seconds), options.max_memory_bytes).ok()) {
+    _exit(4);
   }
   const std::string answer =
       EncodeAnswer(ReadModelWithAssimp(path, options.max_triangles, kTextureBudget));
@@ -246,6 +231,26 @@ absl::StatusOr<Mesh> ReadInChild(const std::string& path, const ModelOptions& op
 }
 
 }  // namespace
+
+absl::Status LimitThisProcess(int cpu_seconds, uint64_t memory_bytes) {
+  const rlimit cpu{static_cast<rlim_t>(cpu_seconds), static_cast<rlim_t>(cpu_seconds)};
+  if (setrlimit(RLIMIT_CPU, &cpu) != 0) return absl::InternalError("setrlimit(RLIMIT_CPU) failed");
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  constexpr bool kSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+  constexpr bool kSanitizer = true;
+#else
+  constexpr bool kSanitizer = false;
+#endif
+#else
+  constexpr bool kSanitizer = false;
+#endif
+  if (kSanitizer) return absl::OkStatus();
+  const rlimit memory{memory_bytes, memory_bytes};
+  if (setrlimit(RLIMIT_AS, &memory) != 0) return absl::InternalError("setrlimit(RLIMIT_AS) failed");
+  return absl::OkStatus();
+}
 
 absl::StatusOr<ModelUnits> ParseModelUnits(const std::string& text, const std::string& flag) {
   if (text == "auto") return ModelUnits::kAuto;

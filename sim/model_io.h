@@ -57,6 +57,12 @@ absl::StatusOr<ModelUnits> ParseModelUnits(const std::string& text, const std::s
 
 absl::StatusOr<Mesh> LoadModel(const std::string& path, const ModelOptions& options = {});
 
+// Limits the calling process to `cpu_seconds` of CPU time (then SIGXCPU) and
+// `memory_bytes` of address space; the latter not in a sanitizer build (sanitizers reserve
+// terabytes of address space up front). What LoadModel's reader and skimap-model-views do
+// before they read a model. Internal if setrlimit fails.
+absl::Status LimitThisProcess(int cpu_seconds, uint64_t memory_bytes);
+
 }  // namespace skimap::sim
 
 #endif  // SKIMAP_SIM_MODEL_IO_H_

@@ -9,8 +9,6 @@
 //          [--max_cpu_seconds N]
 // Exit status: 0 written; 2 the model or an option is refused (one line on stderr, naming
 // the file as given); 1 anything else.
-#include <sys/resource.h>
-
 #include <cstdio>
 #include <map>
 #include <string>
@@ -43,25 +41,6 @@ absl::StatusOr<std::vector<double>> Numbers(const std::string& text, const std::
   return out;
 }
 
-bool SanitizerBuild() {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-  return true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-  return true;
-#endif
-#endif
-  return false;
-}
-
-absl::Status Limit(int resource, double value, const char* flag) {
-  const rlimit limit{static_cast<rlim_t>(value), static_cast<rlim_t>(value)};
-  if (setrlimit(resource, &limit) != 0) {
-    return absl::InternalError(absl::StrCat(flag, ": setrlimit failed"));
-  }
-  return absl::OkStatus();
-}
-
 int Run(const std::map<std::string, std::string>& args) {
   auto get = [&](const std::string& key, const std::string& fallback) {
     auto it = args.find(key);
@@ -72,14 +51,10 @@ int Run(const std::map<std::string, std::string>& args) {
       !absl::SimpleAtod(get("max_cpu_seconds", "600"), &cpu_seconds) || cpu_seconds < 1) {
     return Refuse(absl::InvalidArgumentError("--max_memory_mb >= 64, --max_cpu_seconds >= 1"));
   }
-  if (absl::Status s = Limit(RLIMIT_CPU, cpu_seconds, "--max_cpu_seconds"); !s.ok()) {
+  if (absl::Status s = sim::LimitThisProcess(static_cast<int>(cpu_seconds),
+                                             static_cast<uint64_t>(memory_mb * 1048576.0));
+      !s.ok()) {
     return Refuse(s);
-  }
-  // Sanitizers reserve terabytes of address space up front: no RLIMIT_AS under them.
-  if (!SanitizerBuild()) {
-    if (absl::Status s = Limit(RLIMIT_AS, memory_mb * 1048576.0, "--max_memory_mb"); !s.ok()) {
-      return Refuse(s);
-    }
   }
   const std::string model = get("model", ""), out = get("out", "");
   int obj_id = 0, azimuths = 0;

@@ -27,7 +27,7 @@ LAYERS = {
     'codec':       (['codec/'], ['skimap_codec', 'skimap_image_codec'], []),
     'skimap':      (['skimap/'], ['skimap'], ['base']),
     'dataset':     (['dataset/'], ['skimap_dataset'], []),
-    'sim':         (['sim/'], ['skimap_sim', 'skimap-sim'], ['dataset']),
+    'sim':         (['sim/'], ['skimap_sim', 'skimap-sim', 'skimap-model-views'], ['dataset']),
     'proto':       (['skimap/v1/'], ['skimap_proto'], []),
     'perception':  (['perception/'], ['skimap_perception'], ['skimap', 'codec', 'base']),
     'objects':     (['perception/objects/'], ['skimap_objects'], ['skimap', 'dataset', 'base']),

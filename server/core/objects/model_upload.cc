@@ -86,9 +86,13 @@ absl::Status ModelUpload::Add(const v1::ModelFile& piece) {
   return absl::OkStatus();
 }
 
-bool ModelUpload::Has(const std::string& name) {
-  for (auto& [n, out] : files_) out.close();
-  return files_.count(name) > 0;
+absl::Status ModelUpload::Seal(const std::string& model) {
+  for (auto& [name, out] : files_) out.close();
+  if (files_.count(model) == 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("model: ", Echo(model), " is not among the files sent"));
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace skimap::server

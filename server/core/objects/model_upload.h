@@ -41,8 +41,9 @@ class ModelUpload {
 
   // Appends a piece to its file.
   absl::Status Add(const v1::ModelFile& piece);
-  // Closes the files; true when `name` (checked as a piece's name) was uploaded.
-  bool Has(const std::string& name);
+  // Closes the files (the upload is complete); InvalidArgument naming `model` unless a
+  // file of that name was uploaded.
+  absl::Status Seal(const std::string& model);
 
   const std::filesystem::path& dir() const { return dir_; }
 

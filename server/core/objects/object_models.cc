@@ -4,8 +4,6 @@
 #include <filesystem>
 
 #include "absl/strings/str_cat.h"
-#include "base/echo.h"
-#include "perception/objects/training.h"
 #include "server/core/objects/model_upload.h"
 #include "server/core/objects/object_codec.h"
 #include "server/core/objects/object_service.h"
@@ -14,7 +12,7 @@ namespace skimap::server {
 namespace fs = std::filesystem;
 
 struct ObjectService::ModelSession {
-  ModelSession(std::atomic<int>* open) : open(open) {}
+  explicit ModelSession(std::atomic<int>* open) : open(open) {}
   ~ModelSession() { --*open; }
   std::atomic<int>* const open;
   v1::AddObjectModelRequest first;  // without its file piece
@@ -60,10 +58,7 @@ absl::Status ObjectService::AddModelPiece(ModelSession& session,
 absl::StatusOr<v1::Operation> ObjectService::FinishModelUpload(
     std::shared_ptr<ModelSession> session) {
   const v1::AddObjectModelRequest& first = session->first;
-  if (!session->upload->Has(first.model())) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("model: ", Echo(first.model()), " is not among the files sent"));
-  }
+  if (absl::Status s = session->upload->Seal(first.model()); !s.ok()) return s;
   const std::string op = operations_.Start("AddObjectModel");
   const bool queued = job_worker_.TrySubmit([this, op, session] {
     const v1::AddObjectModelRequest& first = session->first;
@@ -71,36 +66,19 @@ absl::StatusOr<v1::Operation> ObjectService::FinishModelUpload(
     v1::OperationProgress pr;
     pr.set_stage("rendering");
     operations_.SetProgress(op, pr);
-    const fs::path scene = session->upload->dir() / "views";
-    absl::Status status = RenderModelViews(options_.model_renderer, session->upload->dir().string(),
-                                           first.model(), first.views(), obj_id, "views");
+    const absl::Status rendered =
+        RenderModelViews(options_.model_renderer, session->upload->dir().string(), first.model(),
+                         first.views(), obj_id, "views");
     std::string name = first.display_name();
     if (name.empty()) name = fs::path(first.model()).stem().string();
-    objects::ObjectModel model;
-    if (status.ok()) {
-      objects::DatasetTrainingOptions o;
-      o.threads = options_.threads;
-      o.progress = [&](const objects::BuildProgress& b) {
-        v1::OperationProgress p;
-        p.set_stage(b.stage);
-        p.set_done(b.done);
-        p.set_total(b.total);
-        const double f = b.total > 0 ? double(b.done) / double(b.total) : 0;
-        p.set_fraction(b.stage == "frames" ? 0.1 + 0.7 * f : 0.8 + 0.15 * f);
-        operations_.SetProgress(op, p);
-      };
-      absl::StatusOr<objects::TrainedObject> trained =
-          objects::TrainObject(scene.string(), obj_id, name, session->params, o);
-      status = trained.status();
-      if (status.ok()) {
-        model = trained->model;
-        status = registry_->Add(*std::move(trained), session->params);
-      }
-    }
+    absl::StatusOr<objects::ObjectModel> model =
+        rendered.ok() ? TrainSceneAndStore(op, (session->upload->dir() / "views").string(), obj_id,
+                                           name, session->params, 1, 0.1)
+                      : rendered;
     const objects::ObjectDatabaseParams params = session->params;
     session->upload.reset();  // the folder goes before the operation says it is done
-    operations_.Finish(op, status, [&](v1::Operation* out) {
-      *out->mutable_object() = ToApiObject(model, params, false);
+    operations_.Finish(op, model.status(), [&](v1::Operation* out) {
+      *out->mutable_object() = ToApiObject(*model, params, false);
     });
   });
   if (!queued) {

@@ -99,6 +99,14 @@ class ObjectService {
   // The params a new object trains with: `api` over the database's (or the defaults).
   absl::StatusOr<objects::ObjectDatabaseParams> TrainingParamsFor(
       const v1::TrainingParams& api) const;
+  // On the job worker: trains obj_id from the BOP scene folder (every stride-th frame) and
+  // stores it, reporting progress to `operation` (frames from `start` to 0.8 of it, mean
+  // shift to 0.95, then saving). The stored object's model.
+  absl::StatusOr<objects::ObjectModel> TrainSceneAndStore(const std::string& operation,
+                                                          const std::string& scene, int obj_id,
+                                                          const std::string& name,
+                                                          const objects::ObjectDatabaseParams& p,
+                                                          int stride, double start);
   void RunBuild(const std::string& operation, const v1::ClassifierParams& api,
                 ObjectRegistry::BuildInput input);
 

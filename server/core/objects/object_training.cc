@@ -82,6 +82,32 @@ void ObjectService::FinishTraining(std::shared_ptr<TrainingSession> session,
   if (!queued) done(absl::ResourceExhaustedError("training worker: queue full, retry later"));
 }
 
+absl::StatusOr<objects::ObjectModel> ObjectService::TrainSceneAndStore(
+    const std::string& op, const std::string& scene, int obj_id, const std::string& name,
+    const objects::ObjectDatabaseParams& p, int stride, double start) {
+  objects::DatasetTrainingOptions o;
+  o.threads = options_.threads;
+  o.use_frame = [stride](int, int frame_id) { return frame_id % stride == 0; };
+  o.progress = [&](const objects::BuildProgress& b) {
+    v1::OperationProgress pr;
+    pr.set_stage(b.stage);
+    pr.set_done(b.done);
+    pr.set_total(b.total);
+    const double f = b.total > 0 ? double(b.done) / double(b.total) : 0;
+    pr.set_fraction(b.stage == "frames" ? start + (0.8 - start) * f : 0.8 + 0.15 * f);
+    operations_.SetProgress(op, pr);
+  };
+  absl::StatusOr<objects::TrainedObject> trained = objects::TrainObject(scene, obj_id, name, p, o);
+  if (!trained.ok()) return trained.status();
+  objects::ObjectModel model = trained->model;
+  v1::OperationProgress pr;
+  pr.set_stage("saving");
+  pr.set_fraction(0.95);
+  operations_.SetProgress(op, pr);
+  if (absl::Status s = registry_->Add(*std::move(trained), p); !s.ok()) return s;
+  return model;
+}
+
 absl::StatusOr<v1::Operation> ObjectService::TrainObjectFromDataset(
     const v1::TrainObjectFromDatasetRequest& request) {
   if (options_.dataset_root.empty()) {
@@ -125,32 +151,10 @@ absl::StatusOr<v1::Operation> ObjectService::TrainObjectFromDataset(
   const int stride = std::max(1, static_cast<int>(request.frame_stride()));
   const std::string op = operations_.Start("TrainObjectFromDataset");
   const bool queued = job_worker_.TrySubmit([this, op, scene, obj_id, name, stride, p = *params] {
-    objects::DatasetTrainingOptions o;
-    o.threads = options_.threads;
-    o.use_frame = [stride](int, int frame_id) { return frame_id % stride == 0; };
-    o.progress = [&](const objects::BuildProgress& b) {
-      v1::OperationProgress pr;
-      pr.set_stage(b.stage);
-      pr.set_done(b.done);
-      pr.set_total(b.total);
-      const double f = b.total > 0 ? double(b.done) / double(b.total) : 0;
-      pr.set_fraction(b.stage == "frames" ? 0.8 * f : 0.8 + 0.15 * f);
-      operations_.SetProgress(op, pr);
-    };
-    absl::StatusOr<objects::TrainedObject> trained =
-        objects::TrainObject(scene.string(), obj_id, name, p, o);
-    absl::Status status = trained.status();
-    objects::ObjectModel model;
-    if (status.ok()) {
-      model = trained->model;
-      v1::OperationProgress pr;
-      pr.set_stage("saving");
-      pr.set_fraction(0.95);
-      operations_.SetProgress(op, pr);
-      status = registry_->Add(*std::move(trained), p);
-    }
-    operations_.Finish(op, status, [&](v1::Operation* out) {
-      *out->mutable_object() = ToApiObject(model, p, false);
+    absl::StatusOr<objects::ObjectModel> model =
+        TrainSceneAndStore(op, scene.string(), obj_id, name, p, stride, 0);
+    operations_.Finish(op, model.status(), [&](v1::Operation* out) {
+      *out->mutable_object() = ToApiObject(*model, p, false);
     });
   });
   if (!queued) {

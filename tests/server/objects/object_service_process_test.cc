@@ -33,6 +33,15 @@ void Stop(pid_t pid) {
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 }
 
+// A failed assertion returns early: the server must not outlive the test. Kills *pid
+// unless the test set it to 0 after stopping the server itself.
+struct KillOnExit {
+  pid_t* pid;
+  ~KillOnExit() {
+    if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
+  }
+};
+
 // Runs the CLI; its exit code and stdout.
 int Cli(const std::string& args, std::string* out) {
   FILE* p = popen(absl::StrCat(SKIMAP_CLI_PATH, " ", args, " 2>/dev/null").c_str(), "r");
@@ -89,13 +98,7 @@ TEST(ObjectsCliTest, AddTrainsAnObjectFromItsTexturedModel) {
   const std::string server = absl::StrCat("127.0.0.1:", FreePort());
   pid_t pid = StartSkimapd(server, data);
   ASSERT_GT(pid, 0);
-  // A failed assertion returns early: the server must not outlive the test.
-  struct Reaper {
-    pid_t* pid;
-    ~Reaper() {
-      if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
-    }
-  } reaper{&pid};
+  const KillOnExit reaper{&pid};
   std::string out;
   ASSERT_EQ(LsWhenUp(server, &out), 0);
   const std::string model = mini + "/models/textured/obj_000001.obj";
@@ -134,12 +137,7 @@ TEST(ObjectsCliTest, AddOnServerRendersTheUploadedModelInAProcessOfItsOwn) {
   const std::string server = absl::StrCat("127.0.0.1:", FreePort());
   pid_t pid = StartSkimapd(server, data);
   ASSERT_GT(pid, 0);
-  struct Reaper {
-    pid_t* pid;
-    ~Reaper() {
-      if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
-    }
-  } reaper{&pid};
+  const KillOnExit reaper{&pid};
   std::string out;
   ASSERT_EQ(LsWhenUp(server, &out), 0);
   const std::string model = mini + "/models/textured/obj_000001.obj";
