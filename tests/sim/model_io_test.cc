@@ -24,7 +24,10 @@ namespace fs = std::filesystem;
 class ModelIoTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::path(::testing::TempDir()) / "model_io_test";
+    // A folder per test: ctest runs the tests of this fixture side by side.
+    dir_ = fs::path(::testing::TempDir()) /
+           (std::string("model_io_test_") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     absl::StatusOr<std::vector<Texture>> textures = LoadTextures(kDefaultTextureDir, 256, 2);
