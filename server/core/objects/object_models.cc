@@ -59,33 +59,26 @@ absl::StatusOr<v1::Operation> ObjectService::FinishModelUpload(
     std::shared_ptr<ModelSession> session) {
   const v1::AddObjectModelRequest& first = session->first;
   if (absl::Status s = session->upload->Seal(first.model()); !s.ok()) return s;
-  const std::string op = operations_.Start("AddObjectModel");
-  const bool queued = job_worker_.TrySubmit([this, op, session] {
-    const v1::AddObjectModelRequest& first = session->first;
-    const int obj_id = static_cast<int>(first.obj_id());
-    v1::OperationProgress pr;
-    pr.set_stage("rendering");
-    operations_.SetProgress(op, pr);
-    const absl::Status rendered =
-        RenderModelViews(options_.model_renderer, session->upload->dir().string(), first.model(),
-                         first.views(), obj_id, "views");
-    std::string name = first.display_name();
-    if (name.empty()) name = fs::path(first.model()).stem().string();
-    absl::StatusOr<objects::ObjectModel> model =
-        rendered.ok() ? TrainSceneAndStore(op, (session->upload->dir() / "views").string(), obj_id,
-                                           name, session->params, 1, 0.1)
-                      : rendered;
-    const objects::ObjectDatabaseParams params = session->params;
-    session->upload.reset();  // the folder goes before the operation says it is done
-    operations_.Finish(op, model.status(), [&](v1::Operation* out) {
-      *out->mutable_object() = ToApiObject(*model, params, false);
-    });
-  });
-  if (!queued) {
-    operations_.Finish(op, absl::ResourceExhaustedError("job queue full"), nullptr);
-    return absl::ResourceExhaustedError("jobs: queue full, retry later");
-  }
-  return operations_.Get(op);
+  return StartTrainingJob(
+      "AddObjectModel", session->params,
+      [this, session](const std::string& op) -> absl::StatusOr<objects::ObjectModel> {
+        const v1::AddObjectModelRequest& first = session->first;
+        const int obj_id = static_cast<int>(first.obj_id());
+        v1::OperationProgress pr;
+        pr.set_stage("rendering");
+        operations_.SetProgress(op, pr);
+        const absl::Status rendered =
+            RenderModelViews(options_.model_renderer, session->upload->dir().string(),
+                             first.model(), first.views(), obj_id, "views");
+        std::string name = first.display_name();
+        if (name.empty()) name = fs::path(first.model()).stem().string();
+        absl::StatusOr<objects::ObjectModel> model =
+            rendered.ok() ? TrainSceneAndStore(op, (session->upload->dir() / "views").string(),
+                                               obj_id, name, session->params, 1, 0.1)
+                          : rendered;
+        session->upload.reset();  // the folder goes before the operation says it is done
+        return model;
+      });
 }
 
 }  // namespace skimap::server

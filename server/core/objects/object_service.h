@@ -99,6 +99,12 @@ class ObjectService {
   // The params a new object trains with: `api` over the database's (or the defaults).
   absl::StatusOr<objects::ObjectDatabaseParams> TrainingParamsFor(
       const v1::TrainingParams& api) const;
+  // Starts operation `kind` whose job (on the job worker) trains and stores one object:
+  // its result is the Object (with `p`), its error the job's. ResourceExhausted when the
+  // job queue is full.
+  absl::StatusOr<v1::Operation> StartTrainingJob(
+      const std::string& kind, objects::ObjectDatabaseParams p,
+      std::function<absl::StatusOr<objects::ObjectModel>(const std::string& operation)> job);
   // On the job worker: trains obj_id from the BOP scene folder (every stride-th frame) and
   // stores it, reporting progress to `operation` (frames from `start` to 0.8 of it, mean
   // shift to 0.95, then saving). The stored object's model.

@@ -149,10 +149,19 @@ absl::StatusOr<v1::Operation> ObjectService::TrainObjectFromDataset(
     }
   }
   const int stride = std::max(1, static_cast<int>(request.frame_stride()));
-  const std::string op = operations_.Start("TrainObjectFromDataset");
-  const bool queued = job_worker_.TrySubmit([this, op, scene, obj_id, name, stride, p = *params] {
-    absl::StatusOr<objects::ObjectModel> model =
-        TrainSceneAndStore(op, scene.string(), obj_id, name, p, stride, 0);
+  return StartTrainingJob("TrainObjectFromDataset", *params,
+                          [this, scene, obj_id, name, stride, p = *params](const std::string& op) {
+                            return TrainSceneAndStore(op, scene.string(), obj_id, name, p, stride,
+                                                      0);
+                          });
+}
+
+absl::StatusOr<v1::Operation> ObjectService::StartTrainingJob(
+    const std::string& kind, objects::ObjectDatabaseParams p,
+    std::function<absl::StatusOr<objects::ObjectModel>(const std::string&)> job) {
+  const std::string op = operations_.Start(kind);
+  const bool queued = job_worker_.TrySubmit([this, op, p = std::move(p), job = std::move(job)] {
+    const absl::StatusOr<objects::ObjectModel> model = job(op);
     operations_.Finish(op, model.status(), [&](v1::Operation* out) {
       *out->mutable_object() = ToApiObject(*model, p, false);
     });
