@@ -78,6 +78,7 @@
 #include "server/core/transfer/chunk_codec.h"
 #include "server/core/transfer/map_exporter.h"
 #include "server/core/transfer/map_importer.h"
+#include "server/core/transfer/map_transfer.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
 #include "storage/sqlite_map_store.h"
@@ -816,7 +817,8 @@ Transfer ExportToFile(server::MapService& service, const std::string& id, bool w
   request.set_name(absl::StrCat("maps/", id));
   request.set_with_journal(with_journal);
   const Clock::time_point t0 = Clock::now();
-  absl::StatusOr<std::unique_ptr<server::MapExporter>> exporter = service.ExportMap(request);
+  absl::StatusOr<std::unique_ptr<server::MapExporter>> exporter =
+      server::MapTransfer(&service).Export(request);
   if (!exporter.ok()) Die(exporter.status().ToString());
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   while (true) {
@@ -838,7 +840,8 @@ Transfer ImportFromFile(server::MapService& service, const std::string& path,
                         const std::string& as) {
   Transfer t{"import with journal (file → ImportMap: store writes + load)"};
   const Clock::time_point t0 = Clock::now();
-  absl::StatusOr<std::unique_ptr<server::MapImporter>> importer = service.ImportMap(as);
+  absl::StatusOr<std::unique_ptr<server::MapImporter>> importer =
+      server::MapTransfer(&service).Import(as);
   if (!importer.ok()) Die(importer.status().ToString());
   std::ifstream in(path, std::ios::binary);
   std::string piece(size_t{1} << 20, '\0');
@@ -851,7 +854,7 @@ Transfer ImportFromFile(server::MapService& service, const std::string& path,
     }
     t.bytes += n;
   }
-  if (absl::StatusOr<v1::Map> map = service.FinishImport(**importer); !map.ok()) {
+  if (absl::StatusOr<v1::Map> map = server::MapTransfer(&service).Finish(**importer); !map.ok()) {
     Die(map.status().ToString());
   }
   t.seconds = Seconds(Clock::now() - t0);

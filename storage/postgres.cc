@@ -16,18 +16,6 @@
 namespace skimap::storage {
 namespace {
 
-// Type OIDs of the parameters (pg_type.h).
-constexpr unsigned int kInt8Oid = 20;
-constexpr unsigned int kTextOid = 25;
-constexpr unsigned int kByteaOid = 17;
-constexpr unsigned int kBoolOid = 16;
-
-std::string BigEndian(uint64_t v, int bytes) {
-  std::string out(bytes, '\0');
-  for (int i = bytes - 1; i >= 0; --i, v >>= 8) out[i] = char(v & 0xff);
-  return out;
-}
-
 absl::Status FromSqlState(const std::string& state, std::string message) {
   const std::string msg = absl::StrCat(message, " (SQLSTATE ", state, ")");
   if (state == "23505") return absl::AlreadyExistsError(msg);
@@ -48,58 +36,6 @@ absl::Status FromSqlState(const std::string& state, std::string message) {
 }
 
 }  // namespace
-
-PgParams& PgParams::Int(int64_t v) {
-  values_.push_back(BigEndian(uint64_t(v), 8));
-  types_.push_back(kInt8Oid);
-  return *this;
-}
-PgParams& PgParams::Text(std::string_view v) {
-  values_.emplace_back(v);
-  types_.push_back(kTextOid);
-  return *this;
-}
-PgParams& PgParams::Bytes(std::string_view v) {
-  values_.emplace_back(v);
-  types_.push_back(kByteaOid);
-  return *this;
-}
-PgParams& PgParams::Bool(bool v) {
-  values_.emplace_back(1, v ? '\1' : '\0');
-  types_.push_back(kBoolOid);
-  return *this;
-}
-
-PgResult& PgResult::operator=(PgResult&& o) noexcept {
-  if (this != &o) {
-    if (r_ != nullptr) PQclear(r_);
-    r_ = o.r_;
-    o.r_ = nullptr;
-  }
-  return *this;
-}
-PgResult::~PgResult() {
-  if (r_ != nullptr) PQclear(r_);
-}
-int PgResult::rows() const { return PQntuples(r_); }
-int64_t PgResult::affected() const {
-  const char* n = PQcmdTuples(r_);
-  return (n == nullptr || *n == '\0') ? 0 : std::strtoll(n, nullptr, 10);
-}
-bool PgResult::IsNull(int row, int col) const { return PQgetisnull(r_, row, col) != 0; }
-int64_t PgResult::Int(int row, int col) const {
-  const auto* p = reinterpret_cast<const unsigned char*>(PQgetvalue(r_, row, col));
-  const int n = PQgetlength(r_, row, col);  // 8 (int8), 4 (int4) or 2 (int2)
-  uint64_t v = 0;
-  for (int i = 0; i < n; ++i) v = v << 8 | p[i];
-  if (n < 8 && n > 0 && (p[0] & 0x80)) v |= ~uint64_t{0} << (8 * n);  // sign-extend
-  return int64_t(v);
-}
-bool PgResult::Bool(int row, int col) const { return PQgetvalue(r_, row, col)[0] != 0; }
-std::string PgResult::tag() const { return PQcmdStatus(r_); }
-std::string PgResult::Bytes(int row, int col) const {
-  return std::string(PQgetvalue(r_, row, col), PQgetlength(r_, row, col));
-}
 
 // The DSN as libpq parsed it: every option it sets, with its hosts and ports split.
 struct PgConnection::Hosts {
@@ -404,77 +340,5 @@ absl::Status PgConnection::ExecScript(std::string_view sql) {
   if (c_ == nullptr) return absl::UnavailableError("postgres: not connected");
   return Await(PQsendQuery(c_, std::string(sql).c_str()) == 1, sql).status();
 }
-
-absl::StatusOr<std::unique_ptr<PgPool>> PgPool::Open(const std::string& dsn, int size,
-                                                     const PgOptions& options) {
-  std::unique_ptr<PgPool> pool(new PgPool());
-  absl::StatusOr<std::unique_ptr<PgConnection>> first = PgConnection::Connect(dsn, options);
-  if (!first.ok()) return first.status();
-  pool->free_.push_back(*std::move(first));
-  // The others share the first's parsed hosts and its knowledge of the primary.
-  for (int i = 1; i < size; ++i) {
-    absl::StatusOr<std::unique_ptr<PgConnection>> c = pool->free_.front()->Another();
-    if (!c.ok()) return c.status();
-    pool->free_.push_back(*std::move(c));
-  }
-  return pool;
-}
-
-PgPool::Lease PgPool::Take() {
-  std::unique_lock<std::mutex> lock(mu_);
-  cv_.wait(lock, [this] { return !free_.empty(); });
-  std::unique_ptr<PgConnection> c = std::move(free_.back());
-  free_.pop_back();
-  return Lease(this, std::move(c));
-}
-
-PgPool::Lease::~Lease() {
-  if (c_ == nullptr) return;
-  if (!c_->healthy()) (void)c_->Reset();  // a failed reset retries on the next use
-  {
-    std::lock_guard<std::mutex> lock(pool_->mu_);
-    pool_->free_.push_back(std::move(c_));
-  }
-  pool_->cv_.notify_one();
-}
-
-PgTransaction::PgTransaction(PgConnection& c, std::string_view mode) : c_(c) {
-  if (!c_.healthy()) status_ = c_.Reset();
-  if (status_.ok()) status_ = c_.ExecScript(absl::StrCat("BEGIN ", std::string(mode)));
-  open_ = status_.ok();
-}
-
-PgTransaction::~PgTransaction() {
-  if (open_) (void)c_.ExecScript("ROLLBACK");
-}
-
-absl::Status PgTransaction::Commit() {
-  open_ = false;  // COMMIT ends the transaction whatever it answers
-  absl::StatusOr<PgResult> r = c_.Exec("COMMIT");
-  if (!r.ok()) return r.status();
-  // COMMIT of a transaction that met an error rolls it back and says so.
-  if (r->tag() != "COMMIT") return absl::AbortedError("postgres: transaction rolled back");
-  return absl::OkStatus();
-}
-
-bool IsRetryable(const absl::Status& s) {
-  return absl::IsUnavailable(s) && (absl::StrContains(s.message(), "SQLSTATE 40001") ||
-                                    absl::StrContains(s.message(), "SQLSTATE 40P01"));
-}
-
-int PgHostCount(const std::string& dsn) {
-  PQconninfoOption* parsed = PQconninfoParse(dsn.c_str(), nullptr);
-  if (parsed == nullptr) return 0;
-  int n = 1;
-  for (PQconninfoOption* o = parsed; o->keyword != nullptr; ++o) {
-    if (o->val != nullptr && std::string_view(o->keyword) == "host") {
-      n = int(std::count(o->val, o->val + std::strlen(o->val), ',')) + 1;
-    }
-  }
-  PQconninfoFree(parsed);
-  return n;
-}
-
-bool IsConnectionLost(const absl::Status& s) { return absl::IsUnavailable(s) && !IsRetryable(s); }
 
 }  // namespace skimap::storage

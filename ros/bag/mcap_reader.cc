@@ -1,12 +1,10 @@
 #include "ros/bag/mcap_reader.h"
 
 #include <fcntl.h>
-#include <lz4frame.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
-#include <zstd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -17,6 +15,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "base/echo.h"
+#include "ros/bag/chunk_compression.h"
 
 namespace skimap::bag {
 namespace {
@@ -254,7 +253,8 @@ class Walker {
         buffer_.reset(new char[size]);
         capacity_ = size;
       }
-      absl::Status s = compression == "zstd" ? Zstd(packed, size) : Lz4(packed, size);
+      absl::Status s = compression == "zstd" ? DecompressZstd(packed, buffer_.get(), size)
+                                             : DecompressLz4(packed, buffer_.get(), size);
       if (!s.ok()) return Bad(at, kChunk, "", s.message());
       records = std::string_view(buffer_.get(), size);
     } else {
@@ -280,54 +280,6 @@ class Walker {
       if (absl::Status s = Record(op, record, record_at, where, at); !s.ok()) return s;
     }
     return absl::OkStatus();
-  }
-
-  absl::Status Zstd(std::string_view packed, uint64_t size) {
-    const unsigned long long declared = ZSTD_getFrameContentSize(packed.data(), packed.size());
-    if (declared == ZSTD_CONTENTSIZE_ERROR) return absl::DataLossError("not a zstd frame");
-    if (declared != ZSTD_CONTENTSIZE_UNKNOWN && declared > size) {
-      return absl::DataLossError(
-          absl::StrCat("zstd frame declares ", declared, " bytes, uncompressed_size ", size));
-    }
-    const size_t n = ZSTD_decompress(buffer_.get(), size, packed.data(), packed.size());
-    if (ZSTD_isError(n)) return absl::DataLossError(absl::StrCat("zstd: ", ZSTD_getErrorName(n)));
-    if (n != size) {
-      return absl::DataLossError(
-          absl::StrCat("zstd: ", n, " bytes decompressed, uncompressed_size ", size));
-    }
-    return absl::OkStatus();
-  }
-
-  absl::Status Lz4(std::string_view packed, uint64_t size) {
-    LZ4F_dctx* dctx = nullptr;
-    if (LZ4F_isError(LZ4F_createDecompressionContext(&dctx, LZ4F_VERSION))) {
-      return absl::ResourceExhaustedError("lz4: cannot create a context");
-    }
-    size_t in_pos = 0, out_pos = 0, hint = 1;
-    absl::Status status;
-    while (hint != 0) {  // 0: the frame ended
-      size_t in_n = packed.size() - in_pos, out_n = size - out_pos;
-      hint = LZ4F_decompress(dctx, buffer_.get() + out_pos, &out_n, packed.data() + in_pos, &in_n,
-                             nullptr);
-      if (LZ4F_isError(hint)) {
-        status = absl::DataLossError(absl::StrCat("lz4: ", LZ4F_getErrorName(hint)));
-        break;
-      }
-      in_pos += in_n;
-      out_pos += out_n;
-      if (hint != 0 && in_n == 0 && out_n == 0) {  // no progress: input ended or output full
-        status =
-            absl::DataLossError(absl::StrCat("lz4: the frame does not end within ", packed.size(),
-                                             " bytes and ", size, " bytes of output"));
-        break;
-      }
-    }
-    LZ4F_freeDecompressionContext(dctx);
-    if (status.ok() && out_pos != size) {
-      status = absl::DataLossError(
-          absl::StrCat("lz4: ", out_pos, " bytes decompressed, uncompressed_size ", size));
-    }
-    return status;
   }
 
   absl::Status CheckDataCrc(uint64_t at, std::string_view content) const {

@@ -3,7 +3,6 @@
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
-#include <sys/resource.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
@@ -17,6 +16,7 @@
 #include "client/frame_depth.h"
 #include "client/map_files.h"
 #include "ros/bag/ros_frames.h"
+#include "ros/bridge/bridge_report.h"
 #include "ros/bridge/ros_convert.h"
 #include "skimap_ros/InstancesInBox.h"
 #include "skimap_ros/InstancesInSphere.h"
@@ -30,78 +30,7 @@ using sensor_msgs::CameraInfo;
 using sensor_msgs::CompressedImage;
 using sensor_msgs::Image;
 
-absl::StatusOr<v1::DepthEncoding> ParseDepthEncoding(const std::string& name) {
-  if (name == "zstd") return v1::DEPTH_ENCODING_ZSTD;
-  if (name == "rvl") return v1::DEPTH_ENCODING_RVL;
-  if (name == "png16") return v1::DEPTH_ENCODING_PNG16;
-  if (name == "raw") return v1::DEPTH_ENCODING_RAW_U16;
-  return absl::InvalidArgumentError(
-      absl::StrCat("~depth_encoding: \"", name, "\" is not zstd, rvl, png16 or raw"));
-}
-
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5))];
-}
-
-// A path under `root` for a client-named relative path, or why not.
-absl::StatusOr<std::filesystem::path> UnderRoot(const std::string& root, const std::string& name) {
-  namespace fs = std::filesystem;
-  const fs::path relative(name);
-  if (name.empty() || relative.is_absolute()) {
-    return absl::InvalidArgumentError("path: must be a non-empty path relative to ~save_dir");
-  }
-  for (const fs::path& part : relative) {
-    if (part == "..") return absl::InvalidArgumentError("path: must not contain ..");
-  }
-  return fs::weakly_canonical(fs::path(root)) / relative;
-}
-
 }  // namespace
-
-absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& pnh) {
-  BridgeParams p;
-  pnh.param("server", p.server, p.server);
-  pnh.param("token_file", p.token_file, p.token_file);
-  pnh.param("tls_ca", p.tls_ca, p.tls_ca);
-  pnh.param("tls_cert", p.tls_cert, p.tls_cert);
-  pnh.param("tls_key", p.tls_key, p.tls_key);
-  pnh.param("map", p.map, p.map);
-  pnh.param("resolution", p.resolution, p.resolution);
-  pnh.param("recognition", p.recognition, p.recognition);
-  pnh.param("fixed_frame", p.fixed_frame, p.fixed_frame);
-  pnh.param("camera_frame", p.camera_frame, p.camera_frame);
-  pnh.param("tf_wait", p.tf_wait, p.tf_wait);
-  pnh.param("compressed_color", p.compressed_color, p.compressed_color);
-  pnh.param("use_color", p.use_color, p.use_color);
-  pnh.param("sync_queue", p.sync_queue, p.sync_queue);
-  pnh.param("depth_encoding", p.depth_encoding, p.depth_encoding);
-  pnh.param("window", p.window, p.window);
-  pnh.param("queue_frames", p.queue_frames, p.queue_frames);
-  pnh.param("publish_rate", p.publish_rate, p.publish_rate);
-  pnh.param("inflation_radius", p.inflation_radius, p.inflation_radius);
-  pnh.param("publish_height_map", p.publish_height_map, p.publish_height_map);
-  pnh.param("save_dir", p.save_dir, p.save_dir);
-  pnh.param("stats_file", p.stats_file, p.stats_file);
-  const auto bad = [](const char* name, auto value, const char* rule) {
-    return absl::InvalidArgumentError(absl::StrCat("~", name, ": ", value, " ", rule));
-  };
-  if (p.map.empty()) return absl::InvalidArgumentError("~map: must not be empty");
-  if (p.fixed_frame.empty()) return absl::InvalidArgumentError("~fixed_frame: must not be empty");
-  if (!(p.resolution > 0)) return bad("resolution", p.resolution, "must be > 0");
-  if (!(p.tf_wait >= 0)) return bad("tf_wait", p.tf_wait, "must be >= 0");
-  if (p.sync_queue < 1) return bad("sync_queue", p.sync_queue, "must be >= 1");
-  if (p.window < 1) return bad("window", p.window, "must be >= 1");
-  if (p.queue_frames < 1) return bad("queue_frames", p.queue_frames, "must be >= 1");
-  if (!(p.publish_rate >= 0)) return bad("publish_rate", p.publish_rate, "must be >= 0");
-  if (!(p.inflation_radius >= 0))
-    return bad("inflation_radius", p.inflation_radius, "must be >= 0");
-  if (absl::StatusOr<v1::DepthEncoding> e = ParseDepthEncoding(p.depth_encoding); !e.ok()) {
-    return e.status();
-  }
-  return p;
-}
 
 class Bridge::Impl {
  public:
@@ -190,32 +119,8 @@ class Bridge::Impl {
     timer_.stop();
     // The last map, unless skimapd stopped answering (then its calls would only time out).
     if (sender_->WaitIdle(std::chrono::seconds(10))) Publish();
-    const SenderStats s = sender_->Stats();
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    const double cpu = usage.ru_utime.tv_sec + usage.ru_utime.tv_usec / 1e6 +
-                       usage.ru_stime.tv_sec + usage.ru_stime.tv_usec / 1e6;
-    const double wall = std::chrono::duration<double>(Clock::now() - started_).count();
-    ROS_INFO(
-        "skimap-ros: %llu frames offered, %llu sent, %llu acknowledged, %llu failed, "
-        "%llu dropped (queue full), %llu without a pose, %llu bad, %llu lost; latency "
-        "p50 %.1f ms p95 %.1f ms; CPU %.1f s in %.1f s",
-        (unsigned long long)s.offered, (unsigned long long)s.sent, (unsigned long long)s.acked_ok,
-        (unsigned long long)s.acked_failed, (unsigned long long)s.dropped,
-        (unsigned long long)no_pose_.load(), (unsigned long long)bad_.load(),
-        (unsigned long long)s.lost, Percentile(s.latencies_ms, 0.5),
-        Percentile(s.latencies_ms, 0.95), cpu, wall);
-    if (!params_.stats_file.empty()) {
-      std::ofstream out(params_.stats_file);
-      out << "{\"offered\": " << s.offered << ", \"sent\": " << s.sent
-          << ", \"acked\": " << s.acked_ok << ", \"failed\": " << s.acked_failed
-          << ", \"dropped\": " << s.dropped << ", \"no_pose\": " << no_pose_.load()
-          << ", \"bad\": " << bad_.load() << ", \"lost\": " << s.lost
-          << ", \"latency_p50_ms\": " << Percentile(s.latencies_ms, 0.5)
-          << ", \"latency_p95_ms\": " << Percentile(s.latencies_ms, 0.95)
-          << ", \"latency_max_ms\": " << Percentile(s.latencies_ms, 1.0)
-          << ", \"cpu_seconds\": " << cpu << ", \"wall_seconds\": " << wall << "}\n";
-    }
+    WriteReport(sender_->Stats(), no_pose_.load(), bad_.load(),
+                std::chrono::duration<double>(Clock::now() - started_).count(), params_.stats_file);
   }
 
  private:
@@ -418,7 +323,7 @@ class Bridge::Impl {
   }
 
   bool OnSaveMap(skimap_ros::SaveMap::Request& req, skimap_ros::SaveMap::Response& res) {
-    absl::StatusOr<std::filesystem::path> path = UnderRoot(params_.save_dir, req.path);
+    absl::StatusOr<std::filesystem::path> path = SavePath(params_.save_dir, req.path);
     absl::Status s = path.status();
     uint64_t bytes = 0;
     if (s.ok()) {

@@ -22,7 +22,8 @@
 // Services: ~instances_in_box, ~instances_in_sphere (skimap_ros/InstancesIn*), ~save_map
 // (skimap_ros/SaveMap, only with ~save_dir set).
 //
-// Parameters (private): BridgeParams below, read by ReadParams; docs/ros.md lists them.
+// Parameters (private): BridgeParams (bridge_params.h), read by ReadParams; docs/ros.md
+// lists them.
 //
 // Thread safety: callbacks run on a multi-threaded spinner; the members they share are
 // thread safe (FrameSender, MapClient) or atomic.
@@ -36,34 +37,10 @@
 
 #include "absl/status/statusor.h"
 #include "client/map_client.h"
+#include "ros/bridge/bridge_params.h"
 #include "ros/bridge/frame_sender.h"
 
 namespace skimap::rosbridge {
-
-struct BridgeParams {
-  std::string server = "127.0.0.1:50051";
-  std::string token_file, tls_ca, tls_cert, tls_key;  // client/channel.h
-  std::string map = "ros";                            // map id; created when missing
-  double resolution = 0.05;                           // metres, for a map the bridge creates
-  bool recognition = false;                           // recognition on a map the bridge creates
-  std::string fixed_frame = "map";                    // poses, grids and markers are in this frame
-  std::string camera_frame;                           // "" = the depth image's header.frame_id
-  double tf_wait = 0.1;                               // seconds to wait for a frame's transform
-  bool compressed_color = false;
-  bool use_color = true;                // false: depth/image + depth/camera_info only
-  int sync_queue = 10;                  // message_filters queue per topic
-  std::string depth_encoding = "zstd";  // zstd | rvl | png16 | raw
-  int window = 8;                       // frames in flight to skimapd
-  int queue_frames = 2;                 // frames waiting to be sent; more are dropped
-  double publish_rate = 1.0;            // Hz; 0 = never
-  double inflation_radius = 0;          // metres, the grid's obstacle inflation
-  bool publish_height_map = true;
-  std::string save_dir;    // ~save_map writes under it; "" = the service is off
-  std::string stats_file;  // at exit: counters and latencies as JSON
-};
-
-// Reads the private parameters; InvalidArgument naming the parameter for a bad value.
-absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& private_nh);
 
 class Bridge {
  public:

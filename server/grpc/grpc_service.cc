@@ -184,7 +184,7 @@ grpc::ServerWriteReactor<v1::ExportChunk>* GrpcMapService::ExportMap(
       !s.ok()) {
     return new RefusedCall<grpc::ServerWriteReactor<v1::ExportChunk>>(s);
   }
-  return new ExportWriteReactor(core_, &blocking_, *request);
+  return new ExportWriteReactor(&transfer_, &blocking_, *request);
 }
 
 grpc::ServerReadReactor<v1::ExportChunk>* GrpcMapService::ImportMap(CallbackServerContext* ctx,
@@ -192,7 +192,7 @@ grpc::ServerReadReactor<v1::ExportChunk>* GrpcMapService::ImportMap(CallbackServ
   absl::StatusOr<auth::Grant> grant =
       CheckCall(options_.auth, ctx, auth::MethodRole("MapService/ImportMap"));
   if (!grant.ok()) return new RefusedCall<grpc::ServerReadReactor<v1::ExportChunk>>(grant.status());
-  return new ImportReadReactor(core_, &blocking_, ctx, response, *std::move(grant));
+  return new ImportReadReactor(&transfer_, &blocking_, ctx, response, *std::move(grant));
 }
 
 ServerUnaryReactor* GrpcMapService::ListInstances(CallbackServerContext* ctx,

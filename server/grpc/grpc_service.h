@@ -28,6 +28,7 @@
 #include "server/core/common/work_queue.h"
 #include "server/core/maps/map_service.h"
 #include "server/core/recognition/instance_queries.h"
+#include "server/core/transfer/map_transfer.h"
 #include "server/grpc/stream_limiter.h"
 #include "skimap/v1/map_service.grpc.pb.h"
 
@@ -49,6 +50,7 @@ class GrpcMapService final : public v1::MapService::CallbackService {
   GrpcMapService(MapService* core, const Options& options)
       : core_(core),
         instances_(core),
+        transfer_(core),
         options_(options),
         streams_(options.max_streams_per_client),
         blocking_({.capacity = 1, .threads = std::max(1, options.transfer_threads)}) {}
@@ -109,6 +111,7 @@ class GrpcMapService final : public v1::MapService::CallbackService {
 
   MapService* const core_;
   const InstanceQueries instances_;  // the recognition calls, over core_
+  const MapTransfer transfer_;       // ExportMap and ImportMap, over core_
   const Options options_;
   StreamLimiter streams_;
   WorkQueue blocking_;  // ExportMap / ImportMap steps (unbounded: one step per open call)

@@ -15,11 +15,11 @@ grpc::Status ShuttingDown() {
 
 }  // namespace
 
-ExportWriteReactor::ExportWriteReactor(MapService* core, WorkQueue* blocking,
+ExportWriteReactor::ExportWriteReactor(const MapTransfer* core, WorkQueue* blocking,
                                        const v1::ExportMapRequest& request)
     : blocking_(blocking) {
   Post([this, core, request] {
-    absl::StatusOr<std::unique_ptr<MapExporter>> exporter = core->ExportMap(request);
+    absl::StatusOr<std::unique_ptr<MapExporter>> exporter = core->Export(request);
     if (!exporter.ok()) return Finish(ToGrpcStatus(exporter.status()));
     exporter_ = *std::move(exporter);
     WriteNext();
@@ -43,7 +43,7 @@ void ExportWriteReactor::WriteNext() {
   StartWrite(&piece_);
 }
 
-ImportReadReactor::ImportReadReactor(MapService* core, WorkQueue* blocking,
+ImportReadReactor::ImportReadReactor(const MapTransfer* core, WorkQueue* blocking,
                                      grpc::CallbackServerContext* ctx, v1::Map* response,
                                      auth::Grant grant)
     : core_(core), blocking_(blocking), ctx_(ctx), response_(response), grant_(std::move(grant)) {
@@ -71,12 +71,12 @@ void ImportReadReactor::Step(bool ok) {
         return End(s);
     }
     absl::StatusOr<std::unique_ptr<MapImporter>> importer =
-        core_->ImportMap(ok ? piece_.map_id() : "");
+        core_->Import(ok ? piece_.map_id() : "");
     if (!importer.ok()) return End(importer.status());
     importer_ = *std::move(importer);
   }
   if (!ok) {  // the client sent the whole file
-    absl::StatusOr<v1::Map> map = core_->FinishImport(*importer_);
+    absl::StatusOr<v1::Map> map = core_->Finish(*importer_);
     if (map.ok()) *response_ = *std::move(map);
     return End(map.status());
   }

@@ -23,7 +23,7 @@
 
 #include "server/core/auth/grant.h"
 #include "server/core/common/work_queue.h"
-#include "server/core/maps/map_service.h"
+#include "server/core/transfer/map_transfer.h"
 #include "skimap/v1/maps.pb.h"
 
 namespace skimap::server {
@@ -31,7 +31,8 @@ namespace skimap::server {
 class ExportWriteReactor final : public grpc::ServerWriteReactor<v1::ExportChunk> {
  public:
   // REQUIRES: core and blocking outlive the call. Deletes itself in OnDone.
-  ExportWriteReactor(MapService* core, WorkQueue* blocking, const v1::ExportMapRequest& request);
+  ExportWriteReactor(const MapTransfer* core, WorkQueue* blocking,
+                     const v1::ExportMapRequest& request);
   void OnWriteDone(bool ok) override;
   void OnDone() override { delete this; }
 
@@ -50,7 +51,7 @@ class ImportReadReactor final : public grpc::ServerReadReactor<v1::ExportChunk> 
   // REQUIRES: core and blocking outlive the call. Deletes itself in OnDone. A map_id
   // outside `grant`'s scope (or none, from a scoped grant) ends the call with
   // PERMISSION_DENIED before anything is written.
-  ImportReadReactor(MapService* core, WorkQueue* blocking, grpc::CallbackServerContext* ctx,
+  ImportReadReactor(const MapTransfer* core, WorkQueue* blocking, grpc::CallbackServerContext* ctx,
                     v1::Map* response, auth::Grant grant = auth::Grant::Everything());
   void OnReadDone(bool ok) override;
   void OnDone() override { delete this; }
@@ -60,7 +61,7 @@ class ImportReadReactor final : public grpc::ServerReadReactor<v1::ExportChunk> 
   // Ends the call with `s`, after the import (if any) was ended.
   void End(const absl::Status& s);
 
-  MapService* const core_;
+  const MapTransfer* const core_;
   WorkQueue* const blocking_;
   grpc::CallbackServerContext* const ctx_;
   v1::Map* const response_;

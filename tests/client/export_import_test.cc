@@ -19,6 +19,7 @@
 #include "client/map_client.h"
 #include "server/app/server.h"
 #include "server/core/transfer/map_export.h"
+#include "server/core/transfer/map_transfer.h"
 #include "storage/sqlite_map_store.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/common/synthetic_scene.h"
@@ -463,7 +464,7 @@ TEST(ExportImportInProcessTest, AMapBeingExportedIsNotEvicted) {
     };
     v1::ExportMapRequest request;
     request.set_name("maps/a");
-    auto exporter = service.ExportMap(request);
+    auto exporter = server::MapTransfer(&service).Export(request);
     ASSERT_TRUE(exporter.ok()) << exporter.status();
     v1::GetMapRequest get;
     get.set_name("maps/b");

@@ -56,14 +56,26 @@ LiveMap::LiveMap(std::string id, const Options& options)
       state_(options.config, options.pool),
       stages_(MakeFrameStages(options.config, Grid(options.config.resolution), options.pool)),
       queue_({.capacity = options.queue_capacity, .nice = options.worker_nice}) {
-  StartRecognition();
+  recognition_ = std::make_unique<MapRecognition>(
+      MapRecognition::Options{.map_id = id_,
+                              .config = &options_.config,
+                              .worker_nice = options_.worker_nice,
+                              .classifier = options_.classifier,
+                              .metrics = options_.metrics},
+      MapRecognition::Map{.mu = &snapshot_mu_,
+                          .state = &state_,
+                          .index = &index_,
+                          .worker = &queue_,
+                          .refused = [this] { return Refused(); },
+                          .instances_changed = [this] { NotifyWatchers(); },
+                          .changes = &recognition_changes_});
 }
 
 LiveMap::~LiveMap() {
   // Queued writes run first (they may hand frames to recognition), then recognition stops
   // (its last job may still use the worker), then the worker goes.
   Drain();
-  recognition_.reset();
+  recognition_->Stop();
 }
 
 absl::Status LiveMap::Refused() const {
@@ -145,13 +157,13 @@ void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done
     if (ack.ok() && decoded != nullptr) {
       // The every-frame policy acks after recognition: the ack then carries this frame.
       auto acked = std::make_shared<v1::FrameAck>(*ack);
-      const bool taken = OfferRecognition(
+      const bool taken = recognition_->Offer(
           frame->sequence(), *frame, std::move(decoded), [this, acked, shared_done] {
-            acked->set_recognized_frames(recognized_frames_.load(std::memory_order_acquire));
+            acked->set_recognized_frames(recognition_->recognized_frames());
             (*shared_done)(*acked);
           });
       if (taken) return;
-      ack->set_recognized_frames(recognized_frames_.load(std::memory_order_acquire));
+      ack->set_recognized_frames(recognition_->recognized_frames());
     }
     (*shared_done)(std::move(ack));
   });
@@ -274,7 +286,7 @@ absl::StatusOr<v1::FrameAck> LiveMap::IntegrateOnWorker(
   if (options_.metrics != nullptr && source == Source::kAppend) {
     options_.metrics->IntegrationTook(absl::FromChrono(Clock::now() - start));
   }
-  if (decoded_out != nullptr && recognition_ != nullptr) {
+  if (decoded_out != nullptr && recognition_->running()) {
     *decoded_out = std::make_shared<const perception::RgbdFrame>(std::move(*decoded));
     recycle.frame = nullptr;
   }
@@ -317,7 +329,7 @@ v1::MapStats LiveMap::Stats() const {
       [&](const char*, const auto& volume, const DirtyChunks&) { memory += volume.MemoryUsage(); });
   stats.set_memory_bytes(memory);
   stats.set_recognized_frames(state_.recognition.recognized_frames);
-  stats.set_recognition_skipped(recognition_ != nullptr ? recognition_->skipped() : 0);
+  stats.set_recognition_skipped(recognition_->skipped());
   stats.set_label_voxels(state_.labels.size());
   stats.set_hypothesis_voxels(state_.hypotheses.size());
   stats.set_instances(state_.recognition.instance_keys.size());
@@ -347,6 +359,40 @@ v1::MapStats LiveMap::Stats() const {
     b->mutable_max()->set_z(g.origin().z + (box->max.z + 1) * r);
   }
   return stats;
+}
+
+uint64_t LiveMap::AddInstanceWatcher(std::function<void()> wake) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  const uint64_t id = next_watcher_++;
+  watchers_[id] = std::move(wake);
+  return id;
+}
+
+void LiveMap::RemoveInstanceWatcher(uint64_t id) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  watchers_.erase(id);
+}
+
+uint64_t LiveMap::AddChangeWatcher(std::function<void()> wake) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  const uint64_t id = next_watcher_++;
+  change_watchers_[id] = std::move(wake);
+  return id;
+}
+
+void LiveMap::RemoveChangeWatcher(uint64_t id) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  change_watchers_.erase(id);
+}
+
+void LiveMap::NotifyChangeWatchers() {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  for (auto& [id, wake] : change_watchers_) wake();
+}
+
+void LiveMap::NotifyWatchers() {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  for (auto& [id, wake] : watchers_) wake();
 }
 
 }  // namespace skimap::server

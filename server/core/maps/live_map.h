@@ -19,11 +19,9 @@
 // made of whole frames and whole pose updates.
 //
 // Recognition (maps with options.recognition.enabled; docs/recognition.md): the worker
-// hands each integrated frame to the map's RecognitionQueue (recognition_queue.h), whose
-// thread detects and classifies features, then has the worker fuse the labels (with the
-// frame's current pose), votes for local hypotheses in the active sphere, and has the
-// worker add them and reconcile the instances (instance_reconciler.h). Every write to the
-// MapState stays on the worker.
+// hands each integrated frame to the map's MapRecognition (map_recognition.h), whose
+// threads detect and classify features, fuse labels, vote and reconcile instances; every
+// write to the MapState stays on the worker.
 //
 // Thread safety: thread safe. Completion callbacks run on the worker thread (or on the
 // submitting thread when the frame is refused up front, or on the recognition thread for
@@ -49,9 +47,6 @@
 #include "base/rw_lock.h"
 #include "base/thread_pool.h"
 #include "perception/objects/object_database.h"
-#include "perception/recognition/label_observer.h"
-#include "perception/recognition/pose_voting.h"
-#include "perception/recognition/recognition_model.h"
 #include "perception/rgbd_frame.h"
 #include "server/core/common/work_queue.h"
 #include "server/core/maps/frame_index.h"
@@ -59,8 +54,7 @@
 #include "server/core/maps/map_config.h"
 #include "server/core/maps/map_state.h"
 #include "server/core/metrics/metrics.h"
-#include "server/core/recognition/recognition_queue.h"
-#include "server/core/recognition/view_keyframes.h"
+#include "server/core/recognition/map_recognition.h"
 #include "skimap/skimap.h"
 #include "skimap/v1/frames.pb.h"
 #include "skimap/v1/maps.pb.h"
@@ -182,11 +176,11 @@ class LiveMap {
 
   // Recognition. OK when the map recognises objects or has recognition off; otherwise why
   // it does not (FailedPrecondition: no classifier, or objects missing from it).
-  absl::Status recognition_status() const { return recognition_status_; }
+  absl::Status recognition_status() const { return recognition_->status(); }
   // The model recognition uses; null when it does not run.
-  const recognition::RecognitionModel* recognition_model() const { return model_.get(); }
+  const recognition::RecognitionModel* recognition_model() const { return recognition_->model(); }
   // Returns once every frame handed to recognition so far was processed.
-  void FlushRecognition();
+  void FlushRecognition() { recognition_->Flush(); }
   // Instance events: `wake` runs (on the worker, under a mutex: it must only schedule
   // work) after new events were appended to the map's InstanceLog. Remove returns once
   // `wake` no longer runs.
@@ -271,35 +265,6 @@ class LiveMap {
   WriteStats ApplyStages(uint64_t frames_added, uint64_t position,
                          const std::function<void(MapState&)>& also = nullptr);
 
-  // Recognition (live_map_recognition.cc).
-  void StartRecognition();  // constructor: model, observers, queue (when enabled)
-  // Worker: hands an integrated frame to recognition; true if `done` was taken over (the
-  // every-frame policy acks after recognition).
-  bool OfferRecognition(uint64_t sequence, const v1::Frame& frame,
-                        std::shared_ptr<const perception::RgbdFrame> decoded,
-                        const std::function<void()>& done);
-  void ObserveOnThread(RecognitionJob& job);    // the queue's first thread: job.observed
-  void RecognizeOnThread(RecognitionJob& job);  // its second: labels, votes, instances
-  // Worker: fuses a frame's labels with its current pose; nullopt if the frame is gone or
-  // was recognised already.
-  std::optional<perception::CameraPose> ApplyLabelsOnWorker(
-      uint64_t sequence, const recognition::LabelObservations& observations);
-  struct Voted {
-    int object_index;
-    recognition::PoseEstimate estimate;
-  };
-  // Worker: adds a frame's hypotheses and reconciles the instances of their objects.
-  void ApplyHypothesesOnWorker(const RecognitionJob& job, const perception::CameraPose& pose,
-                               const recognition::Sphere& sphere, const std::vector<Voted>& voted);
-  // Worker, UpdatePoses: stages the labels of recognised frame `frame` (its old and new
-  // pose) and returns what must move in the recognition volumes under the write's lock.
-  void StageRecognitionMove(uint64_t sequence, const perception::RgbdFrame& frame,
-                            const perception::CameraPose& old_pose,
-                            const perception::CameraPose& new_pose);
-  void ApplyRecognitionMoves(MapState& state, uint64_t position);  // under the lock
-  void AfterLoadRecognition();  // worker, after the snapshot was read
-  // The Labels volume's grid: fixed when the map is made, so read without the lock.
-  const Grid& labels_grid() const ABSL_NO_THREAD_SAFETY_ANALYSIS { return state_.labels.grid(); }
   void NotifyWatchers();
   void NotifyChangeWatchers();
   std::string RetentionPolicy() const;
@@ -330,27 +295,18 @@ class LiveMap {
   std::mutex snapshot_run_mu_;  // one Snapshot() at a time
   std::atomic<int> snapshot_holds_{0};
 
-  // Recognition: the model (null without), why it does not run, the worker's observer
-  // (UpdatePoses re-observes moved frames), label moves staged by UpdatePoses, the
-  // keyframes instances are checked against.
-  std::shared_ptr<const recognition::RecognitionModel> model_;
-  absl::Status recognition_status_;
-  std::unique_ptr<recognition::LabelObserver> worker_observer_;
-  std::unique_ptr<recognition::LabelObserver> thread_observer_;  // observing thread only
-  VoxelBatch<MultiLabelVoxel> labels_add_, labels_remove_;       // worker only
-  std::map<uint64_t, Eigen::Isometry3d> hypothesis_moves_;       // worker only: frame -> delta
-  std::unique_ptr<ViewKeyframes> view_keyframes_;                // worker only
-  std::atomic<uint64_t> recognized_frames_{0};
-  std::atomic<uint64_t> recognition_changes_{0};  // applied since the last capture
+  // Changes recognition made without a journal record, since the last snapshot capture.
+  std::atomic<uint64_t> recognition_changes_{0};
   std::mutex watchers_mu_;
   std::map<uint64_t, std::function<void()>> watchers_;         // guarded by watchers_mu_
   uint64_t next_watcher_ = 1;                                  // guarded by watchers_mu_
   std::map<uint64_t, std::function<void()>> change_watchers_;  // guarded by watchers_mu_
 
   WorkQueue queue_;  // destroyed before the members above, draining tasks while they live
-  // After queue_, so destroyed before it: its jobs use the worker. ~LiveMap drains the
-  // worker first, then stops this, then the worker goes.
-  std::unique_ptr<RecognitionQueue> recognition_;
+  // The recognition stage (recognition/map_recognition.h). After queue_, so destroyed
+  // before it: its jobs use the worker. ~LiveMap drains the worker first, then stops
+  // this, then the worker goes.
+  std::unique_ptr<MapRecognition> recognition_;
 };
 
 }  // namespace skimap::server

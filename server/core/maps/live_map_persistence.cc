@@ -128,7 +128,7 @@ absl::Status LiveMap::LoadSnapshotOnWorker() {
     state_.ForEachVolume([](const char*, auto&, DirtyChunks& dirty) { dirty.clear(); });
   }
   (void)index_.TakeDirty();
-  AfterLoadRecognition();
+  recognition_->AfterLoad();
   // Records before the first one left in the journal were pruned.
   uint64_t first = 0;
   absl::Status read = store.ReadJournal(id_, 0, 1, [&](const storage::JournalRecord& r) {

@@ -78,7 +78,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
     frame->pose = entry.pose;
     StageFrame(*frame, FrameStage::kRemove);
     if (entry.recognized) {
-      StageRecognitionMove(request.updates(i).sequence(), *frame, entry.pose, poses[i]);
+      recognition_->StageMove(request.updates(i).sequence(), *frame, entry.pose, poses[i]);
     }
     frame->pose = poses[i];
     StageFrame(*frame, FrameStage::kAdd);
@@ -87,7 +87,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
   // are integer counts, so merged de-integration is exact.
   v1::UpdatePosesResponse response;
   const WriteStats total =
-      ApplyStages(0, position, [&](MapState& state) { ApplyRecognitionMoves(state, position); });
+      ApplyStages(0, position, [&](MapState& state) { recognition_->ApplyMoves(state); });
   NotifyWatchers();
   NotifyChangeWatchers();
   for (int i = 0; i < request.updates_size(); ++i) {

@@ -3,7 +3,8 @@
 // codes documented in map_service.proto; the gRPC adapter (grpc_service.h) converts them
 // once. Routes of the API map one-to-one onto these methods, but for the recognition calls
 // (ListInstances, GetInstance, WatchInstances, GetLabelVoxels): InstanceQueries
-// (server/core/recognition/instance_queries.h), over FindMap.
+// (server/core/recognition/instance_queries.h), over FindMap; and for ExportMap and
+// ImportMap: MapTransfer (server/core/transfer/map_transfer.h).
 //
 //   MapService service({.worker_threads = 2});
 //   absl::StatusOr<v1::Map> map = service.CreateMap(request);
@@ -26,8 +27,6 @@
 #include "server/core/maps/map_ownership.h"
 #include "server/core/maps/map_registry.h"
 #include "server/core/metrics/metrics.h"
-#include "server/core/transfer/map_exporter.h"
-#include "server/core/transfer/map_importer.h"
 #include "skimap/v1/frames.pb.h"
 #include "skimap/v1/maps.pb.h"
 #include "skimap/v1/queries.pb.h"
@@ -120,15 +119,6 @@ class MapService {
   // max_poses (the last frame kept). InvalidArgument for max_poses outside 0..100000.
   absl::StatusOr<v1::Trajectory> GetTrajectory(const v1::GetTrajectoryRequest& request) const;
 
-  // Export and import of whole maps (map_service_transfer.cc); FailedPrecondition without
-  // a store. ExportMap snapshots the map and returns its export file, piece by piece
-  // (map_exporter.h). ImportMap starts an import under `map_id` ("": the file's id; else
-  // validated as CreateMap does, InvalidArgument naming map_id); the caller feeds it the
-  // file (MapImporter::Add) and ends with FinishImport, which answers the new map.
-  absl::StatusOr<std::unique_ptr<MapExporter>> ExportMap(const v1::ExportMapRequest& request);
-  absl::StatusOr<std::unique_ptr<MapImporter>> ImportMap(const std::string& map_id);
-  absl::StatusOr<v1::Map> FinishImport(MapImporter& importer);
-
   // WatchMap: a watch of one map's changes (the viewer's live updates). `wake` runs (on a
   // map thread, under a mutex: it must only schedule work) after each write that changed
   // map `request.name` (an integrated frame, a pose update) and once when it is deleted or
@@ -154,6 +144,10 @@ class MapService {
   // NotFound, a redirect, the map's own (DataLoss for a corrupt map, ...).
   absl::StatusOr<std::shared_ptr<LiveMap>> FindMap(const std::string& name,
                                                    const char* field) const;
+  // For the cores built on this one (transfer/map_transfer.h): the registry of maps and
+  // the store (null: maps live in memory only).
+  MapRegistry* registry() const { return &registry_; }
+  storage::MapStore* store() const { return options_.store; }
 
  private:
   absl::Status CheckRecognition(const RecognitionConfig& config) const;

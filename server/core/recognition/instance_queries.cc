@@ -11,6 +11,7 @@
 #include "base/encoding.h"
 #include "server/core/common/page_token.h"
 #include "server/core/maps/map_service.h"
+#include "server/core/recognition/instance_proto.h"
 #include "server/core/recognition/instance_reconciler.h"
 
 namespace skimap::server {

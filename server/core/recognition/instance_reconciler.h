@@ -64,10 +64,6 @@ int ReconcileInstances(const recognition::RecognitionModel& model, const Reconci
 bool IsVisible(const InstanceVisibility& visible, const Instance& instance,
                const recognition::RecognitionModel* model);
 
-// The API view of an instance of map `map_id`.
-v1::Instance ToProto(const Instance& instance, const recognition::RecognitionModel* model,
-                     const std::string& map_id);
-
 }  // namespace skimap::server
 
 #endif  // SERVER_CORE_RECOGNITION_INSTANCE_RECONCILER_H_

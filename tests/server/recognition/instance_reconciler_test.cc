@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "codec/image_codec.h"
+#include "server/core/recognition/instance_proto.h"
 #include "tests/perception/objects/small_database.h"
 
 namespace skimap::server {

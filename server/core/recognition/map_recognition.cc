@@ -1,6 +1,5 @@
-// LiveMap: the recognition stage (docs/recognition.md). The observing thread turns a
-// frame into label observations; the recognition thread fuses them, votes and reconciles
-// (recognition_queue.h); every change of the MapState runs on the map's worker.
+#include "server/core/recognition/map_recognition.h"
+
 #include <algorithm>
 #include <cstdio>
 #include <random>
@@ -9,7 +8,6 @@
 #include "absl/strings/str_cat.h"
 #include "perception/recognition/active_sphere.h"
 #include "server/core/logging/log.h"
-#include "server/core/maps/live_map.h"
 #include "server/core/recognition/instance_reconciler.h"
 
 namespace skimap::server {
@@ -45,14 +43,19 @@ std::vector<std::pair<VoxelKey, Hypothesis>> HypothesesOfFrames(
 
 }  // namespace
 
-void LiveMap::StartRecognition() {
-  const RecognitionConfig& rc = options_.config.recognition;
+MapRecognition::MapRecognition(const Options& options, const Map& map)
+    : options_(options), map_(map), mu_(map.mu), state_(map.state) {
+  Start();
+}
+
+void MapRecognition::Start() {
+  const RecognitionConfig& rc = options_.config->recognition;
   if (!rc.enabled) return;
   std::shared_ptr<const objects::ObjectDatabase> db =
       options_.classifier ? options_.classifier() : nullptr;
   if (db == nullptr) {
-    recognition_status_ = absl::FailedPreconditionError(
-        absl::StrCat("map ", MapName(id_),
+    status_ = absl::FailedPreconditionError(
+        absl::StrCat("map ", MapName(options_.map_id),
                      ": recognition is on but the server has no object classifier (train "
                      "objects and build it: skimap objects build)"));
     return;
@@ -60,57 +63,57 @@ void LiveMap::StartRecognition() {
   absl::StatusOr<recognition::RecognitionModel> model =
       recognition::RecognitionModel::Create(std::move(db), rc.obj_ids);
   if (!model.ok()) {
-    recognition_status_ = absl::FailedPreconditionError(
-        absl::StrCat("map ", MapName(id_), ": recognition is off: ", model.status().message()));
+    status_ = absl::FailedPreconditionError(absl::StrCat(
+        "map ", MapName(options_.map_id), ": recognition is off: ", model.status().message()));
     return;
   }
   model_ = std::make_shared<const recognition::RecognitionModel>(*std::move(model));
   worker_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
   view_keyframes_ = std::make_unique<ViewKeyframes>(
-      ViewKeyframes::Options{.min_depth = options_.config.integration.min_depth});
+      ViewKeyframes::Options{.min_depth = options_.config->integration.min_depth});
   thread_observer_ = std::make_unique<recognition::LabelObserver>(*model_);
-  recognition_ = std::make_unique<RecognitionQueue>(
+  queue_ = std::make_unique<RecognitionQueue>(
       RecognitionQueue::Options{.every_frame = rc.every_frame,
                                 .nice = RecognitionNice(rc.every_frame, options_.worker_nice)},
       [this](RecognitionJob& job) { ObserveOnThread(job); },
       [this](RecognitionJob& job) { RecognizeOnThread(job); });
 }
 
-void LiveMap::FlushRecognition() {
-  if (recognition_ != nullptr) recognition_->Flush();
+void MapRecognition::Flush() {
+  if (queue_ != nullptr) queue_->Flush();
 }
 
-bool LiveMap::OfferRecognition(uint64_t sequence, const v1::Frame& frame,
-                               std::shared_ptr<const perception::RgbdFrame> decoded,
-                               const std::function<void()>& done) {
-  if (recognition_ == nullptr || !decoded->color.has_value()) return false;
-  const bool every_frame = options_.config.recognition.every_frame;
-  recognition_->Offer({.sequence = sequence,
-                       .time_us = TimestampMicros(frame),
-                       .frame = std::move(decoded),
-                       .done = every_frame ? done : nullptr});
+bool MapRecognition::Offer(uint64_t sequence, const v1::Frame& frame,
+                           std::shared_ptr<const perception::RgbdFrame> decoded,
+                           const std::function<void()>& done) {
+  if (queue_ == nullptr || !decoded->color.has_value()) return false;
+  const bool every_frame = options_.config->recognition.every_frame;
+  queue_->Offer({.sequence = sequence,
+                 .time_us = TimestampMicros(frame),
+                 .frame = std::move(decoded),
+                 .done = every_frame ? done : nullptr});
   return every_frame;
 }
 
-void LiveMap::ObserveOnThread(RecognitionJob& job) {
-  if (!Refused().ok()) return;
-  const perception::IntegrationOptions& io = options_.config.integration;
+void MapRecognition::ObserveOnThread(RecognitionJob& job) {
+  if (!map_.refused().ok()) return;
+  const perception::IntegrationOptions& io = options_.config->integration;
   job.observed = thread_observer_->Observe(*job.frame, io.min_depth, io.max_depth);
   // The frame stays with the job: `run` checks instances against its depth (the view
   // conflict). At most one prepared job waits, so this holds one frame more.
 }
 
-void LiveMap::RecognizeOnThread(RecognitionJob& job) {
-  if (!Refused().ok()) return;
-  const RecognitionConfig& rc = options_.config.recognition;
+void MapRecognition::RecognizeOnThread(RecognitionJob& job) {
+  if (!map_.refused().ok()) return;
+  const RecognitionConfig& rc = options_.config->recognition;
   const absl::StatusOr<recognition::LabelObservations>& observed = job.observed;
   if (!observed.ok()) {
-    LogWarning(absl::StrCat(MapName(id_), ": recognition of frame ", job.sequence, ": ",
+    LogWarning(absl::StrCat(MapName(options_.map_id), ": recognition of frame ", job.sequence, ": ",
                             observed.status().ToString()));
     return;
   }
   const std::optional<perception::CameraPose> pose =
-      queue_.Run([&] { return ApplyLabelsOnWorker(job.sequence, *observed); });
+      map_.worker->Run([&] { return ApplyLabelsOnWorker(job.sequence, *observed); });
   if (!pose.has_value()) return;
 
   const recognition::Sphere sphere =
@@ -118,9 +121,10 @@ void LiveMap::RecognizeOnThread(RecognitionJob& job) {
 
   // Matches per object (Eq. 7-8) from the labels in the sphere.
   std::vector<std::vector<recognition::LabelMatch>> matches(model_->num_objects());
-  Read([&](const MapState& s) {
-    const Grid& g = s.labels.grid();
-    s.labels.RadiusSearch(
+  {
+    ReaderLock lock(mu_);
+    const Grid& g = state_->labels.grid();
+    state_->labels.RadiusSearch(
         AsPoint3(sphere.centre), sphere.radius,
         [&](const VoxelKey& k, const MultiLabelVoxel& voxel) {
           // The voxel's heaviest label (paper §4.1: its maximal pair).
@@ -131,8 +135,7 @@ void LiveMap::RecognizeOnThread(RecognitionJob& job) {
           if (!model_->ClassPoint(e.label, &v, &o)) return;
           matches[o].push_back({Eigen::Vector3f(c.x, c.y, c.z), v, static_cast<float>(e.count)});
         });
-    return 0;
-  });
+  }
   recognition::VotingOptions voting;
   voting.triples = rc.triples;
   voting.bin = static_cast<float>(rc.hough_bin);
@@ -146,45 +149,46 @@ void LiveMap::RecognizeOnThread(RecognitionJob& job) {
       voted.push_back({o, e});
     }
   }
-  queue_.Run([&] { ApplyHypothesesOnWorker(job, *pose, sphere, voted); });
+  map_.worker->Run([&] { ApplyHypothesesOnWorker(job, *pose, sphere, voted); });
 }
 
-std::optional<perception::CameraPose> LiveMap::ApplyLabelsOnWorker(
+std::optional<perception::CameraPose> MapRecognition::ApplyLabelsOnWorker(
     uint64_t sequence, const recognition::LabelObservations& observations) {
-  if (!Refused().ok()) return std::nullopt;
-  const FrameIndex::Entry* entry = index_.Find(sequence);
+  if (!map_.refused().ok()) return std::nullopt;
+  const FrameIndex::Entry* entry = map_.index->Find(sequence);
   if (entry == nullptr || entry->recognized) return std::nullopt;
   VoxelBatch<MultiLabelVoxel> batch;
   recognition::AddLabels(observations, entry->pose, labels_grid(), &batch);
   batch.Finalize();
   {
-    WriterLock lock(&snapshot_mu_);
-    MarkDirtyChunks(batch.items(), &state_.dirty_labels);
-    if (!batch.empty()) state_.labels.Integrate(batch);
-    ++state_.recognition.recognized_frames;
-    if (state_.recognition.fingerprint != model_->fingerprint()) {
-      state_.recognition.fingerprint = model_->fingerprint();
-      state_.recognition.meta_dirty = true;
+    WriterLock lock(mu_);
+    MarkDirtyChunks(batch.items(), &state_->dirty_labels);
+    if (!batch.empty()) state_->labels.Integrate(batch);
+    ++state_->recognition.recognized_frames;
+    if (state_->recognition.fingerprint != model_->fingerprint()) {
+      state_->recognition.fingerprint = model_->fingerprint();
+      state_->recognition.meta_dirty = true;
     }
   }
-  index_.SetRecognized(sequence);
+  map_.index->SetRecognized(sequence);
   recognized_frames_.fetch_add(1, std::memory_order_acq_rel);
   if (options_.metrics != nullptr) options_.metrics->FrameRecognized();
-  recognition_changes_.fetch_add(1, std::memory_order_acq_rel);
+  Changed();
   return entry->pose;
 }
 
-void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perception::CameraPose& pose,
-                                      const recognition::Sphere& sphere,
-                                      const std::vector<Voted>& voted) {
-  if (!Refused().ok()) return;
+void MapRecognition::ApplyHypothesesOnWorker(const RecognitionJob& job,
+                                             const perception::CameraPose& pose,
+                                             const recognition::Sphere& sphere,
+                                             const std::vector<Voted>& voted) {
+  if (!map_.refused().ok()) return;
   // Before the lock: a new vantage point's depth is copied (half resolution).
   view_keyframes_->Offer(job.sequence, job.frame->depth, job.frame->depth_scale, job.frame->camera,
                          Isometry(pose));
   std::set<int> objects;
   int events = 0;
   {
-    WriterLock lock(&snapshot_mu_);
+    WriterLock lock(mu_);
     for (const Voted& v : voted) {
       const Eigen::Quaternionf q(v.estimate.pose.linear());
       const Eigen::Vector3f t = v.estimate.pose.translation();
@@ -194,9 +198,9 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
                    v.estimate.score,
                    job.sequence};
       VoxelKey key;
-      if (!state_.hypotheses.grid().ToKey(t.x(), t.y(), t.z(), &key)) continue;
+      if (!state_->hypotheses.grid().ToKey(t.x(), t.y(), t.z(), &key)) continue;
       // Bounded per voxel and object: the oldest frames' hypotheses make room.
-      if (std::optional<HypothesesVoxel> there = state_.hypotheses.Find(key)) {
+      if (std::optional<HypothesesVoxel> there = state_->hypotheses.Find(key)) {
         std::vector<Hypothesis> mine;
         for (const Hypothesis& x : there->items()) {
           if (x.object_id == h.object_id) mine.push_back(x);
@@ -208,14 +212,15 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
           for (size_t i = 0; i + kMaxHypothesesPerVoxel <= mine.size(); ++i) {
             old += HypothesesVoxel(mine[i]);
           }
-          state_.hypotheses.DeintegrateKey(key, old);
+          state_->hypotheses.DeintegrateKey(key, old);
         }
       }
-      state_.hypotheses.IntegrateKey(key, HypothesesVoxel(h));
-      state_.dirty_hypotheses.insert(ChunkOf(key));
+      state_->hypotheses.IntegrateKey(key, HypothesesVoxel(h));
+      state_->dirty_hypotheses.insert(ChunkOf(key));
       objects.insert(v.object_index);
     }
-    const ReconcileParams params{.map_id = id_, .visible = options_.config.recognition.visible};
+    const ReconcileParams params{.map_id = options_.map_id,
+                                 .visible = options_.config->recognition.visible};
     for (int o : objects) {
       events += ReconcileInstances(*model_, params,
                                    {.object_index = o,
@@ -224,18 +229,18 @@ void LiveMap::ApplyHypothesesOnWorker(const RecognitionJob& job, const perceptio
                                     .frame_time_us = job.time_us,
                                     .frame_supports = true,
                                     .views = view_keyframes_->views()},
-                                   &state_);
+                                   state_);
     }
   }
-  recognition_changes_.fetch_add(1, std::memory_order_acq_rel);
-  if (events > 0) NotifyWatchers();
+  Changed();
+  if (events > 0) map_.instances_changed();
 }
 
-void LiveMap::StageRecognitionMove(uint64_t sequence, const perception::RgbdFrame& frame,
-                                   const perception::CameraPose& old_pose,
-                                   const perception::CameraPose& new_pose) {
+void MapRecognition::StageMove(uint64_t sequence, const perception::RgbdFrame& frame,
+                               const perception::CameraPose& old_pose,
+                               const perception::CameraPose& new_pose) {
   if (model_ == nullptr) return;  // labels of a database this server no longer has
-  const perception::IntegrationOptions& io = options_.config.integration;
+  const perception::IntegrationOptions& io = options_.config->integration;
   absl::StatusOr<recognition::LabelObservations> observed =
       worker_observer_->Observe(frame, io.min_depth, io.max_depth);
   if (observed.ok()) {
@@ -246,7 +251,7 @@ void LiveMap::StageRecognitionMove(uint64_t sequence, const perception::RgbdFram
   view_keyframes_->Move(sequence, Isometry(new_pose));
 }
 
-void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
+void MapRecognition::ApplyMoves(MapState& state) {
   if (model_ == nullptr ||
       (labels_add_.empty() && labels_remove_.empty() && hypothesis_moves_.empty())) {
     labels_add_.Clear();
@@ -291,7 +296,8 @@ void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
     r.hi = r.hi.cwiseMax(t0).cwiseMax(t1);
   }
   hypothesis_moves_.clear();
-  const ReconcileParams params{.map_id = id_, .visible = options_.config.recognition.visible};
+  const ReconcileParams params{.map_id = options_.map_id,
+                               .visible = options_.config->recognition.visible};
   // Twice: the second pass sees every object's instances in their new places (one object's
   // instance can rule out another's where they would overlap).
   for (int pass = 0; pass < 2; ++pass) {
@@ -307,17 +313,17 @@ void LiveMap::ApplyRecognitionMoves(MapState& state, uint64_t position) {
           &state);
     }
   }
-  recognition_changes_.fetch_add(1, std::memory_order_acq_rel);
+  Changed();
 }
 
-void LiveMap::AfterLoadRecognition() {
-  WriterLock lock(&snapshot_mu_);
+void MapRecognition::AfterLoad() {
+  WriterLock lock(mu_);
   // The lambdas below fill locals: clang's lock analysis checks a lambda as a function of
   // its own, where a captured alias of state_ would count as unguarded.
-  RecognitionState& r = state_.recognition;
-  r.recognized_frames = index_.recognized();
+  RecognitionState& r = state_->recognition;
+  r.recognized_frames = map_.index->recognized();
   absl::flat_hash_map<uint64_t, VoxelKey> instance_keys;
-  state_.instances.ForEach([&](const VoxelKey& k, const InstancesVoxel& voxel) {
+  state_->instances.ForEach([&](const VoxelKey& k, const InstancesVoxel& voxel) {
     for (const Instance& i : voxel.items()) instance_keys[i.id] = k;
   });
   r.instance_keys = std::move(instance_keys);
@@ -325,58 +331,24 @@ void LiveMap::AfterLoadRecognition() {
   if (model_ == nullptr || r.fingerprint == 0 || r.fingerprint == model_->fingerprint()) return;
   // Labels name classes of another object database: they mean nothing with this one. The
   // instances (object ids and poses) stay; labels and hypotheses start again.
-  LogWarning(absl::StrCat(MapName(id_),
+  LogWarning(absl::StrCat(MapName(options_.map_id),
                           ": the object classifier changed since the map's labels were made; "
                           "its labels and hypotheses are cleared (instances are kept)"));
   DirtyChunks labels, hypotheses;
-  state_.labels.ForEach(
+  state_->labels.ForEach(
       [&](const VoxelKey& k, const MultiLabelVoxel&) { labels.insert(ChunkOf(k)); });
-  state_.hypotheses.ForEach(
+  state_->hypotheses.ForEach(
       [&](const VoxelKey& k, const HypothesesVoxel&) { hypotheses.insert(ChunkOf(k)); });
-  state_.dirty_labels.insert(labels.begin(), labels.end());
-  state_.dirty_hypotheses.insert(hypotheses.begin(), hypotheses.end());
-  state_.labels.Clear();
-  state_.hypotheses.Clear();
+  state_->dirty_labels.insert(labels.begin(), labels.end());
+  state_->dirty_hypotheses.insert(hypotheses.begin(), hypotheses.end());
+  state_->labels.Clear();
+  state_->hypotheses.Clear();
   r.fingerprint = model_->fingerprint();
   r.meta_dirty = true;
   r.recognized_frames = 0;
   recognized_frames_.store(0, std::memory_order_release);
-  index_.ClearRecognized();
-  recognition_changes_.fetch_add(1, std::memory_order_acq_rel);
-}
-
-uint64_t LiveMap::AddInstanceWatcher(std::function<void()> wake) {
-  std::lock_guard<std::mutex> lock(watchers_mu_);
-  const uint64_t id = next_watcher_++;
-  watchers_[id] = std::move(wake);
-  return id;
-}
-
-void LiveMap::RemoveInstanceWatcher(uint64_t id) {
-  std::lock_guard<std::mutex> lock(watchers_mu_);
-  watchers_.erase(id);
-}
-
-uint64_t LiveMap::AddChangeWatcher(std::function<void()> wake) {
-  std::lock_guard<std::mutex> lock(watchers_mu_);
-  const uint64_t id = next_watcher_++;
-  change_watchers_[id] = std::move(wake);
-  return id;
-}
-
-void LiveMap::RemoveChangeWatcher(uint64_t id) {
-  std::lock_guard<std::mutex> lock(watchers_mu_);
-  change_watchers_.erase(id);
-}
-
-void LiveMap::NotifyChangeWatchers() {
-  std::lock_guard<std::mutex> lock(watchers_mu_);
-  for (auto& [id, wake] : change_watchers_) wake();
-}
-
-void LiveMap::NotifyWatchers() {
-  std::lock_guard<std::mutex> lock(watchers_mu_);
-  for (auto& [id, wake] : watchers_) wake();
+  map_.index->ClearRecognized();
+  Changed();
 }
 
 }  // namespace skimap::server

@@ -1,0 +1,199 @@
+// Template definitions for skimap.h: the write path of a batch (Apply: the batch split by
+// x column, over the pool's threads; each column's y and z levels updated in one walk of
+// its sorted keys). Include skimap.h, not this file.
+#ifndef SKIMAP_SKIMAP_WRITE_IMPL_H_
+#define SKIMAP_SKIMAP_WRITE_IMPL_H_
+
+#include <algorithm>
+#include <atomic>
+#include <utility>
+
+namespace skimap {
+
+template <Voxel V>
+WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n, bool integrate) {
+  std::vector<Run> runs;
+  for (size_t i = 0; i < n;) {
+    size_t j = i + 1;
+    while (j < n && items[j].key.x == items[i].key.x) ++j;
+    runs.push_back({items[i].key.x, i, j, nullptr, {}});
+    i = j;
+  }
+  bool missing = false;
+  {
+    ReaderLock lock(&x_mu_);
+    for (Run& r : runs) {
+      const std::unique_ptr<Column>* c = xs_.Find(r.x);
+      r.column = c != nullptr ? c->get() : nullptr;
+      missing |= r.column == nullptr;
+    }
+  }
+  if (integrate && missing) {
+    WriterLock lock(&x_mu_);
+    for (Run& r : runs) {
+      if (r.column != nullptr) continue;
+      auto column = std::make_unique<Column>(ColumnOptions(r.x));
+      r.column = column.get();
+      xs_.Insert(r.x, std::move(column));
+    }
+  }
+
+  const uint64_t version = internal::NextColumnVersion();
+  auto apply_runs = [&](size_t first, size_t last) {
+    for (size_t i = first; i < last; ++i) {
+      Run& r = runs[i];
+      if (r.column == nullptr) continue;
+      WriterLock lock(&r.column->mu);
+      r.stats = ApplyToColumn(*r.column, r.x, items + r.begin, items + r.end, integrate);
+      r.column->version.store(version, std::memory_order_release);
+      StampYBlocks(*r.column, items + r.begin, items + r.end, version);
+    }
+  };
+  ThreadPool* pool = options_.pool;
+  if (pool != nullptr && pool->workers() > 0 && n >= internal::kParallelMinItems &&
+      runs.size() > 1) {
+    // Pieces of about equal item counts: piece p takes the runs starting in its share.
+    const size_t pieces = static_cast<size_t>(pool->workers()) + 1;
+    std::vector<size_t> piece_start(pieces + 1, runs.size());
+    for (size_t p = 0, r = 0; p < pieces; ++p) {
+      while (r < runs.size() && runs[r].begin < p * n / pieces) ++r;
+      piece_start[p] = r;
+    }
+    pool->ParallelFor(pieces, [&](size_t first, size_t last) {
+      for (size_t p = first; p < last; ++p) apply_runs(piece_start[p], piece_start[p + 1]);
+    });
+  } else {
+    apply_runs(0, runs.size());
+  }
+
+  WriteStats total;
+  std::vector<int32_t> emptied;
+  for (const Run& r : runs) {
+    total += r.stats;
+    // A column may be empty after removals, or when it is new and all its data was empty.
+    if (r.column == nullptr || (r.stats.voxels_removed == 0 && r.stats.voxels_created > 0))
+      continue;
+    ReaderLock lock(&r.column->mu);
+    if (r.column->ys.empty()) emptied.push_back(r.x);
+  }
+  if (!emptied.empty()) {
+    WriterLock lock(&x_mu_);
+    for (int32_t x : emptied) xs_.Erase(x);
+  }
+  size_.fetch_add(total.voxels_created - total.voxels_removed, std::memory_order_relaxed);
+  return total;
+}
+
+template <Voxel V>
+void SkiMap<V>::StampYBlocks(Column& c, const typename VoxelBatch<V>::Item* begin,
+                             const typename VoxelBatch<V>::Item* end, uint64_t version)
+    ABSL_NO_THREAD_SAFETY_ANALYSIS {  // caller holds c.mu
+  auto& blocks = c.y_blocks;
+  int32_t last = 0;
+  bool any = false;
+  for (auto* it = begin; it != end; ++it) {
+    const int32_t block = it->key.y >> kYBlockShift;
+    if (any && block == last) continue;  // items are sorted by y: blocks come in runs
+    any = true;
+    last = block;
+    auto pos = std::lower_bound(
+        blocks.begin(), blocks.end(), block,
+        [](const std::pair<int32_t, uint64_t>& b, int32_t key) { return b.first < key; });
+    if (pos != blocks.end() && pos->first == block) {
+      pos->second = version;
+    } else {
+      blocks.insert(pos, {block, version});
+    }
+  }
+}
+
+template <Voxel V>
+WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBatch<V>::Item* begin,
+                                    const typename VoxelBatch<V>::Item* end, bool integrate)
+    ABSL_NO_THREAD_SAFETY_ANALYSIS {  // caller holds c.mu
+  using YList = typename Column::YList;
+  WriteStats s;
+  typename YList::Finger yf;
+  // A new column (every column of a first frame) is built by appending: the batch is sorted,
+  // so no search is needed, and its nodes come from one chunk reserved up front.
+  const bool new_column = integrate && c.ys.empty();
+  if (new_column) {
+    size_t ys = 0;
+    for (auto* it = begin; it != end; ++it) ys += it == begin || it->key.y != it[-1].key.y;
+    // Nodes of height 1, plus the towers of the taller ones (1/3 pointer per node at p=1/4).
+    const size_t per_node = sizeof(void*) / 2;
+    c.arena.pool().Reserve(static_cast<size_t>(end - begin) * (ZList::NodeBytes(1) + per_node) +
+                           ys * (YList::NodeBytes(1) + per_node));
+  }
+  for (auto* it = begin; it != end;) {
+    const int32_t y = it->key.y;
+    auto* run_end = it;
+    while (run_end != end && run_end->key.y == y) ++run_end;
+    typename YList::Node* yn;
+    bool fresh = false;  // yn is a new entry: its voxels are appended without search
+    if (new_column) {
+      // Empty data makes no voxel (V() += empty stays empty), so no entry for a run of it.
+      for (; it != run_end && it->data.IsEmpty(); ++it) ++s.voxels_touched;
+      if (it == run_end) continue;
+      yn = c.ys.Append(c.arena, yf, y);
+      fresh = true;
+    } else if (integrate) {
+      yn = c.ys.FindOrInsert(c.arena, yf, y, &fresh);
+    } else {
+      yn = c.ys.Seek(yf, y);
+      if (yn == nullptr || yn->key != y) {
+        it = run_end;
+        continue;
+      }
+    }
+    if (fresh) {
+      typename ZList::Finger append;
+      for (; it != run_end; ++it) {
+        ++s.voxels_touched;
+        if (it->data.IsEmpty()) continue;
+        ZNode* zn = yn->value.Append(c.arena, append, it->key.z);
+        zn->value += it->data;
+        c.heap_bytes += zn->value.HeapBytes();
+        ++s.voxels_created;
+      }
+      // Only FindOrInsert's entries can end empty (a new column's start with real data),
+      // and yf is then a Seek finger, as Erase needs.
+      if (yn->value.empty()) c.ys.Erase(c.arena, yf, y);
+      continue;
+    }
+    ZList& zl = yn->value;
+    typename ZList::Finger zf;
+    for (; it != run_end; ++it) {
+      const int32_t z = it->key.z;
+      ZNode* zn;
+      bool created = false;
+      if (integrate) {
+        zn = zl.FindOrInsert(c.arena, zf, z, &created);
+      } else {
+        zn = zl.Seek(zf, z);
+        if (zn == nullptr || zn->key != z) continue;
+      }
+      const size_t heap_before = zn->value.HeapBytes();
+      if (integrate) {
+        zn->value += it->data;
+      } else {
+        zn->value -= it->data;
+      }
+      ++s.voxels_touched;
+      s.voxels_created += created;
+      if (zn->value.IsEmpty()) {
+        c.heap_bytes -= heap_before;
+        zl.Erase(c.arena, zf, z);
+        ++s.voxels_removed;
+      } else {
+        c.heap_bytes += zn->value.HeapBytes() - heap_before;
+      }
+    }
+    if (zl.empty()) c.ys.Erase(c.arena, yf, y);
+  }
+  return s;
+}
+
+}  // namespace skimap
+
+#endif  // SKIMAP_SKIMAP_WRITE_IMPL_H_
