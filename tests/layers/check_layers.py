@@ -10,6 +10,9 @@
   check_layers.py --self-test                the scan finds a wrong-way include planted in a
                                              scratch tree (so this check can fail)
 
+The scan also holds production files to MAX_LINES lines (the house rule: a file over it is
+split by concern).
+
 Exit 0 when everything holds; 1 with one line per violation otherwise.
 """
 import json
@@ -57,6 +60,7 @@ FORBIDDEN_SYSTEM = {
     'objects': [r'^grpcpp/', r'\.pb\.h$', r'^sqlite3\.h$', r'^libpq-fe\.h$'],
     'recognition': [r'^grpcpp/', r'\.pb\.h$', r'^sqlite3\.h$', r'^libpq-fe\.h$'],
 }
+MAX_LINES = 420
 PRODUCTION = ['base', 'codec', 'skimap', 'dataset', 'sim', 'perception', 'storage', 'server',
               'ros', 'client', 'tools']
 INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^">]+)[">]', re.M)
@@ -97,6 +101,9 @@ def scan(root):
                 files += 1
                 allowed = closure(src) | {src}
                 text = open(os.path.join(root, path), errors='replace').read()
+                if text.count('\n') > MAX_LINES:
+                    errors.append(f'{path}: {text.count(chr(10))} lines, over {MAX_LINES}: '
+                                  'split it by concern')
                 for m in INCLUDE.finditer(text):
                     kind, inc = m.groups()
                     line = text.count('\n', 0, m.start()) + 1
@@ -229,17 +236,19 @@ def self_test():
         for d, body in [('base/a.h', '#include "absl/status/status.h"\n'),
                         ('skimap/b.h', '#include "base/a.h"\n'),
                         ('storage/c.cc', '#include "server/core/maps/d.h"\n'),
-                        ('server/core/maps/d.h', '#include <grpcpp/grpcpp.h>\n')]:
+                        ('server/core/maps/d.h', '#include <grpcpp/grpcpp.h>\n'),
+                        ('server/core/maps/e.cc', '//\n' * (MAX_LINES + 1))]:
             os.makedirs(os.path.join(root, os.path.dirname(d)), exist_ok=True)
             open(os.path.join(root, d), 'w').write(body)
         errors, _ = scan(root)
         want = ['storage/c.cc:1: layer storage includes server/core/maps/d.h',
-                'server/core/maps/d.h:1: layer core must not include grpcpp/grpcpp.h']
+                'server/core/maps/d.h:1: layer core must not include grpcpp/grpcpp.h',
+                f'server/core/maps/e.cc: {MAX_LINES + 1} lines, over {MAX_LINES}']
         missing = [w for w in want if not any(e.startswith(w) for e in errors)]
-        if missing or len(errors) != 2:
+        if missing or len(errors) != len(want):
             print('self-test: expected exactly', want, 'got', errors)
             return 1
-    print('self-test: the scan finds both planted violations and nothing else')
+    print('self-test: the scan finds the three planted violations and nothing else')
     return 0
 
 
