@@ -11,7 +11,9 @@ bash scripts/deps.sh
 bash scripts/check_format.sh
 jobs=$(nproc)
 bash scripts/build.sh release
-(cd build/release && ctest --output-on-failure -j "$jobs" --timeout 600)
+# One more test than cores: the release suite waits a third of its time (servers starting,
+# failovers, browsers), so a third test fills the cores it leaves idle.
+(cd build/release && ctest --output-on-failure -j "$((jobs + 1))" --timeout 600)
 bash scripts/build.sh asan
 # The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and five
 # long end-to-end tests that run in the release pass only: the object pipeline's
@@ -22,7 +24,8 @@ bash scripts/build.sh asan
 # a paused primary: 200 + 60 s under ASan, mostly waiting for the cluster). Their code runs
 # under ASan through the object service tests, the unit tests of each part, and for the
 # failovers PostgresFailoverTest.* (lost COMMITs, a stalled server, reconnects).
-heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances|Ablation[.]|PgFailoverTest[.](Killing|APaused))'
+# Layers.* reads sources and compile commands (no code of ours runs): the release pass runs it.
+heavy='^(ObjectPipelineTest[.]|skimap_recognition_test$|Viewer[.]BrowserListsInstances|Ablation[.]|PgFailoverTest[.](Killing|APaused)|Layers[.])'
 # Third-party leaks and races (Debian's uninstrumented libraries): tests/lsan.supp and
 # tests/tsan.supp.
 (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
