@@ -11,9 +11,7 @@ bash scripts/deps.sh
 bash scripts/check_format.sh
 jobs=$(nproc)
 bash scripts/build.sh release
-# One more test than cores: the release suite waits a third of its time (servers starting,
-# failovers, browsers), so a third test fills the cores it leaves idle.
-(cd build/release && ctest --output-on-failure -j "$((jobs + 1))" --timeout 600)
+(cd build/release && ctest --output-on-failure -j "$jobs" --timeout 600)
 bash scripts/build.sh asan
 # The suite under ASan+UBSan (halt on the first report), the fuzz targets apart, and five
 # long end-to-end tests that run in the release pass only: the object pipeline's
