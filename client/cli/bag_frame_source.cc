@@ -1,13 +1,22 @@
 #include "client/cli/bag_frame_source.h"
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <deque>
+#include <fstream>
 #include <mutex>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
 #include "client/frame_depth.h"
+
+extern char** environ;
 
 namespace skimap::client {
 namespace {
@@ -111,11 +120,51 @@ class BagFrameSource final : public FrameSource {
   std::thread reader_;
 };
 
+bool IsRos1Bag(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[12] = {};
+  in.read(magic, sizeof magic);
+  return in.gcount() == sizeof magic && std::memcmp(magic, "#ROSBAG V2.0", sizeof magic) == 0;
+}
+
+// Reads the ROS 1 bag at `path` in a child process first (bag_frame_source.h).
+absl::Status CheckRos1BagInChild(const std::string& path) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
+  std::string self = "/proc/self/exe", command = "__read-ros1-bag", file = path;
+  std::vector<char*> argv = {self.data(), command.data(), file.data(), nullptr};
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, self.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) {
+    return absl::InternalError(absl::StrCat("cannot start the bag check: ", std::strerror(rc)));
+  }
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFSIGNALED(status)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": the ROS 1 bag library (Debian's rosbag) crashed reading this file (signal ",
+        WTERMSIG(status), "): it is damaged or hostile; nothing was streamed"));
+  }
+  return absl::OkStatus();  // read, or refused: this process's own read says why
+}
+
 }  // namespace
+
+int ReadRos1BagInThisProcess(const std::string& path) {
+  return bag::ReadAllFrameMessages(path).ok() ? 0 : 1;
+}
 
 absl::StatusOr<std::unique_ptr<FrameSource>> OpenBagFrameSource(const std::string& path,
                                                                 const bag::BagFrameOptions& options,
                                                                 v1::DepthEncoding depth_encoding) {
+  if (IsRos1Bag(path)) {
+    if (absl::Status s = CheckRos1BagInChild(path); !s.ok()) return s;
+  }
   absl::StatusOr<std::unique_ptr<bag::BagFrames>> bag = bag::BagFrames::Open(path, options);
   if (!bag.ok()) return bag.status();
   return std::make_unique<BagFrameSource>(*std::move(bag), options, depth_encoding);

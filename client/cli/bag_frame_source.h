@@ -2,6 +2,13 @@
 // pairs, poses and converts; this reads ahead on its own thread and encodes the depth the
 // way the stream sends it).
 //
+// ROS 1 bags are read by Debian's rosbag library, which a hostile file can crash (a
+// fuzzer found a 45-byte bag on which ros::Header::parse reads past its buffer; the input
+// is tests/ros/data/rosbag_header_overread.bag). So before this process reads a ROS 1 bag,
+// a child process (this binary, `skimap __read-ros1-bag PATH`, posix_spawn'd: safe beside
+// the client's threads) reads it whole; a child killed by a signal makes the bag refused
+// by name. The price: a ROS 1 bag is read twice.
+//
 // Thread safety: FrameSource's (one caller at a time).
 #ifndef CLIENT_CLI_BAG_FRAME_SOURCE_H_
 #define CLIENT_CLI_BAG_FRAME_SOURCE_H_
@@ -21,6 +28,11 @@ namespace skimap::client {
 absl::StatusOr<std::unique_ptr<FrameSource>> OpenBagFrameSource(const std::string& path,
                                                                 const bag::BagFrameOptions& options,
                                                                 v1::DepthEncoding depth_encoding);
+
+// The child's side: reads every message of the frame topics of the ROS 1 bag at `path`;
+// returns the process's exit status (0 read, 1 refused with an error). `skimap` runs it
+// for the hidden command `__read-ros1-bag PATH`.
+int ReadRos1BagInThisProcess(const std::string& path);
 
 }  // namespace skimap::client
 

@@ -15,7 +15,8 @@ bool IsBagPath(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::is_directory(path, ec)) return fs::exists(fs::path(path) / "metadata.yaml", ec);
-  return absl::EndsWith(path, ".bag") || absl::EndsWith(path, ".mcap");
+  return absl::EndsWith(path, ".bag") || absl::EndsWith(path, ".mcap") ||
+         absl::EndsWith(path, ".db3");
 }
 
 absl::StatusOr<std::unique_ptr<FrameSource>> OpenFrameSource(const std::string& path,

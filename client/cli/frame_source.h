@@ -52,7 +52,7 @@ struct FrameSourceOptions {
   BagSourceOptions bag;
 };
 
-// True if `path` names a ROS bag: a file ending in .bag or .mcap, or a folder holding a
+// True if `path` names a ROS bag: a file ending in .bag, .mcap or .db3, or a folder holding a
 // rosbag2 metadata.yaml.
 bool IsBagPath(const std::string& path);
 

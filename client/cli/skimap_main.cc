@@ -39,6 +39,9 @@
 #include "absl/flags/usage.h"
 #include "absl/strings/str_format.h"
 #include "client/cli/eval_command.h"
+#ifdef SKIMAP_WITH_ROS
+#include "client/cli/bag_frame_source.h"
+#endif
 #include "client/cli/instances_command.h"
 #include "client/cli/map_commands.h"
 #include "client/cli/map_option_flags.h"
@@ -155,6 +158,12 @@ std::vector<char*> NormalizeFlagNames(int argc, char** argv, std::vector<std::st
 }  // namespace
 
 int main(int argc, char** argv) {
+#ifdef SKIMAP_WITH_ROS
+  // The child that reads a ROS 1 bag before `stream` does (client/cli/bag_frame_source.h).
+  if (argc == 3 && std::string(argv[1]) == "__read-ros1-bag") {
+    return skimap::client::ReadRos1BagInThisProcess(argv[2]);
+  }
+#endif
   absl::SetProgramUsageMessage(
       "skimap [--server=host:port] maps ls|create ID|rm ID|info ID\n"
       "       skimap stream DATASET|BAG --map=ID [--fps=N] [--every=N] [--max_frames=N] "

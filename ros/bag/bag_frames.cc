@@ -333,4 +333,17 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
   return s;
 }
 
+absl::Status ReadAllFrameMessages(const std::string& path) {
+  absl::StatusOr<std::unique_ptr<BagReader>> reader = OpenBag(path);
+  if (!reader.ok()) return reader.status();
+  std::vector<std::string> topics;
+  for (const BagTopic& t : (*reader)->topics()) {
+    if (t.type == kImageType || t.type == kCompressedImageType || t.type == kCameraInfoType ||
+        t.type == kTfType) {
+      topics.push_back(t.name);
+    }
+  }
+  return (*reader)->ForEach(topics, [](const BagMessage&) { return absl::OkStatus(); });
+}
+
 }  // namespace skimap::bag

@@ -95,6 +95,11 @@ class BagFrames {
   uint64_t depth_images_ = 0;
 };
 
+// Reads every message of the four frame types in the bag at `path` (OpenBag, ForEach) and
+// drops it: the check `skimap stream` runs in a child process before reading a ROS 1 bag
+// itself (client/cli/bag_frame_source.h). The first error, or OK.
+absl::Status ReadAllFrameMessages(const std::string& path);
+
 }  // namespace skimap::bag
 
 #endif  // ROS_BAG_BAG_FRAMES_H_

@@ -2,7 +2,8 @@
 // C++ message types whatever the bag's format:
 //   - ROS 1 bags (.bag, "#ROSBAG V2.0"): read with the rosbag C++ API (ros1_bag.cc);
 //   - ROS 2 bags: one MCAP file, or a rosbag2 folder (metadata.yaml and its .mcap files,
-//     read in name order), CDR messages (mcap_bag.cc over mcap_reader.h and cdr_messages.h).
+//     read in name order), CDR messages (mcap_bag.cc over mcap_reader.h and cdr_messages.h);
+//     or rosbag2's older sqlite3 storage, one .db3 file or a folder of them (sqlite_bag.cc).
 // The types read: sensor_msgs Image, CompressedImage, CameraInfo and tf2_msgs TFMessage
 // (/tf and /tf_static). Types are named the ROS 1 way ("sensor_msgs/Image"); a ROS 2
 // schema name "sensor_msgs/msg/Image" reads as that.
@@ -66,15 +67,16 @@ class BagReader {
                                const std::function<absl::Status(const BagMessage&)>& fn) = 0;
 };
 
-// Opens a ROS 1 bag or a ROS 2 MCAP bag (file or rosbag2 folder), by its contents.
-// NotFound for a missing path; InvalidArgument for a file that is neither (naming it), a
-// rosbag2 folder without .mcap files (the sqlite3 storage is not read); DataLoss for a bag
-// whose index or summary is corrupt.
+// Opens a ROS 1 bag or a ROS 2 bag (an MCAP or sqlite3 file, or a rosbag2 folder of
+// either), by its contents. NotFound for a missing path; InvalidArgument for a file that is
+// none of these (naming it) or a folder without .mcap or .db3 files; DataLoss for a bag
+// whose index, summary or database is corrupt.
 absl::StatusOr<std::unique_ptr<BagReader>> OpenBag(const std::string& path);
 
 // Implementations, for OpenBag.
 absl::StatusOr<std::unique_ptr<BagReader>> OpenRos1Bag(const std::string& path);
 absl::StatusOr<std::unique_ptr<BagReader>> OpenMcapBag(const std::vector<std::string>& files);
+absl::StatusOr<std::unique_ptr<BagReader>> OpenSqliteBag(const std::vector<std::string>& files);
 
 }  // namespace skimap::bag
 

@@ -1,35 +1,14 @@
 // ROS 2 bags in MCAP (bag_reader.h): one file, or the .mcap files of a rosbag2 folder in
 // name order (a split recording), over the own MCAP reader and CDR decoders.
-#include <boost/make_shared.hpp>
 #include <map>
 
 #include "absl/strings/str_cat.h"
 #include "ros/bag/bag_reader.h"
-#include "ros/bag/cdr_messages.h"
 #include "ros/bag/mcap_reader.h"
+#include "ros/bag/ros2_messages.h"
 
 namespace skimap::bag {
 namespace {
-
-// "sensor_msgs/msg/Image" -> "sensor_msgs/Image"; other names unchanged.
-std::string Ros1TypeName(const std::string& schema) {
-  const size_t msg = schema.find("/msg/");
-  if (msg == std::string::npos) return schema;
-  return absl::StrCat(schema.substr(0, msg), "/", schema.substr(msg + 5));
-}
-
-template <typename T>
-absl::Status Decode(const McapMessage& m, const std::string& file,
-                    boost::shared_ptr<const T>* out) {
-  auto msg = boost::make_shared<T>();
-  if (absl::Status s = DecodeCdr(m.data, msg.get()); !s.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(file, ": message on ", m.channel->topic,
-                                                   " (record at offset ", m.record_offset,
-                                                   "): ", s.message()));
-  }
-  *out = std::move(msg);
-  return absl::OkStatus();
-}
 
 class McapBag final : public BagReader {
  public:
@@ -62,41 +41,18 @@ class McapBag final : public BagReader {
 
   absl::Status ForEach(const std::vector<std::string>& topics,
                        const std::function<absl::Status(const BagMessage&)>& fn) override {
-    for (const std::string& name : topics) {
-      const BagTopic* topic = Find(name);
-      if (topic == nullptr) {
-        return absl::InvalidArgumentError(absl::StrCat(Name(), ": no topic ", name));
-      }
-      if (topic->type != kImageType && topic->type != kCompressedImageType &&
-          topic->type != kCameraInfoType && topic->type != kTfType) {
-        return absl::InvalidArgumentError(absl::StrCat(Name(), ": topic ", name, " is a ",
-                                                       topic->type, ", not a type frames use"));
-      }
-      if (encodings_[name] != "cdr") {
-        return absl::InvalidArgumentError(absl::StrCat(
-            Name(), ": topic ", name, " has message encoding \"", encodings_[name], "\", not cdr"));
-      }
-    }
+    if (absl::Status s = CheckRos2Topics(Name(), topics_, encodings_, topics); !s.ok()) return s;
     for (size_t i = 0; i < readers_.size(); ++i) {
       const std::string& file = files_[i];
       absl::Status s = readers_[i]->ForEachMessage(topics, [&](const McapMessage& m) {
         BagMessage out;
         out.topic = &m.channel->topic;
         out.time.fromNSec(m.log_time_ns);
-        const std::string type = Ros1TypeName(m.channel->schema_name);
-        absl::Status d;
-        if (type == kImageType) {
-          d = Decode(m, file, &out.image);
-        } else if (type == kCompressedImageType) {
-          d = Decode(m, file, &out.compressed);
-        } else if (type == kCameraInfoType) {
-          d = Decode(m, file, &out.info);
-        } else if (type == kTfType) {
-          d = Decode(m, file, &out.tf);
-        } else {
-          d = absl::InvalidArgumentError(
-              absl::StrCat(file, ": topic ", m.channel->topic, " changed its type to ", type));
-        }
+        absl::Status d =
+            DecodeRos2Message(Ros1TypeName(m.channel->schema_name), m.data,
+                              absl::StrCat(file, ": message on ", m.channel->topic,
+                                           " (record at offset ", m.record_offset, ")"),
+                              &out);
         if (!d.ok()) return d;
         return fn(out);
       });
@@ -107,13 +63,6 @@ class McapBag final : public BagReader {
 
  private:
   std::string Name() const { return files_.size() == 1 ? files_[0] : files_[0] + " ..."; }
-  const BagTopic* Find(const std::string& name) const {
-    for (const BagTopic& t : topics_) {
-      if (t.name == name) return &t;
-    }
-    return nullptr;
-  }
-
   std::vector<std::string> files_;
   std::vector<std::unique_ptr<McapReader>> readers_;
   std::vector<BagTopic> topics_;

@@ -19,6 +19,8 @@
 //                                 (default); compressed: sensor_msgs/msg/CompressedImage on
 //                                 /camera/color/image_raw/compressed carrying the rgb file's
 //                                 bytes as stored (format "png" or "jpeg")
+//   --jsonl FILE                  also every message as a JSON line {topic, type, ns, cdr}
+//                                 (base64 CDR), for tests/ros/write_db3.py
 //   --crop WxH                    keep only the top-left W x H pixels of the depth and raw
 //                                 colour images (K is unchanged, so the geometry stays
 //                                 right): small test bags. Compressed colour stays whole.
@@ -105,7 +107,7 @@ function Fail(message) {
 function ParseFlags(argv) {
   const o = {
     compression: "zstd", chunked: true, chunkSize: 4 << 20, every: 1, limit: Infinity,
-    depthFormat: "16UC1", color: "raw", crop: null, positional: [],
+    depthFormat: "16UC1", color: "raw", crop: null, jsonl: null, positional: [],
   };
   for (let i = 0; i < argv.length; ++i) {
     const a = argv[i];
@@ -125,6 +127,7 @@ function ParseFlags(argv) {
     else if (a === "--limit") o.limit = count();
     else if (a === "--depth-format") o.depthFormat = value();
     else if (a === "--color") o.color = value();
+    else if (a === "--jsonl") o.jsonl = value();
     else if (a === "--crop") {
       const m = /^(\d+)x(\d+)$/.exec(value());
       if (!m || +m[1] < 1 || +m[2] < 1) Fail("--crop: want WxH, e.g. 8x6");
@@ -328,13 +331,21 @@ async function Main() {
   await Channel("/camera/depth/image_raw", "sensor_msgs/msg/Image");
   await Channel(colorTopic, o.color === "raw" ? "sensor_msgs/msg/Image" : "sensor_msgs/msg/CompressedImage");
   const sequence = {};
+  // --jsonl FILE: every message also as one JSON line {topic, type, ns, cdr (base64)}, for
+  // tests/ros/write_db3.py to store in rosbag2's sqlite3 layout.
+  const jsonl = o.jsonl ? fs.openSync(o.jsonl, "w") : null;
   async function Publish(topic, stamp, message) {
     const c = channels[topic];
     sequence[topic] = (sequence[topic] ?? 0) + 1;
+    const data = serializers[c.type].writer.writeMessage(message);
     await writer.addMessage({
-      channelId: c.id, sequence: sequence[topic], logTime: stamp.ns, publishTime: stamp.ns,
-      data: serializers[c.type].writer.writeMessage(message),
+      channelId: c.id, sequence: sequence[topic], logTime: stamp.ns, publishTime: stamp.ns, data,
     });
+    if (jsonl !== null) {
+      fs.writeSync(jsonl, JSON.stringify({
+        topic, type: c.type, ns: stamp.ns.toString(), cdr: Buffer.from(data).toString("base64"),
+      }) + "\n");
+    }
   }
 
   const first = Stamp(ids[0]);
@@ -367,6 +378,7 @@ async function Main() {
   }
   await writer.end();
   writable.close();
+  if (jsonl !== null) fs.closeSync(jsonl);
 }
 
 Main().catch((e) => Fail(e.stack ?? String(e)));
