@@ -4,7 +4,7 @@
 //                                     | maps rm ID | maps info ID
 //   skimap stream DATASET|BAG --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=zstd]
 //                                              (creates ID if missing; BAG: a ROS 1 .bag,
-//                                              a ROS 2 .mcap or rosbag2 folder, with
+//                                              a ROS 2 .mcap or .db3 or rosbag2 folder, with
 //                                              --depth_topic, --color_topic,
 //                                              --camera_info_topic, --fixed_frame,
 //                                              --camera_frame, --sync_tolerance: docs/ros.md)
