@@ -338,10 +338,7 @@ absl::Status ReadAllFrameMessages(const std::string& path) {
   if (!reader.ok()) return reader.status();
   std::vector<std::string> topics;
   for (const BagTopic& t : (*reader)->topics()) {
-    if (t.type == kImageType || t.type == kCompressedImageType || t.type == kCameraInfoType ||
-        t.type == kTfType) {
-      topics.push_back(t.name);
-    }
+    if (IsFrameType(t.type)) topics.push_back(t.name);
   }
   return (*reader)->ForEach(topics, [](const BagMessage&) { return absl::OkStatus(); });
 }

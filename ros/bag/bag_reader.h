@@ -36,6 +36,12 @@ inline constexpr char kCompressedImageType[] = "sensor_msgs/CompressedImage";
 inline constexpr char kCameraInfoType[] = "sensor_msgs/CameraInfo";
 inline constexpr char kTfType[] = "tf2_msgs/TFMessage";
 
+// True for the four types frames are made of (the ones ForEach decodes).
+inline bool IsFrameType(const std::string& type) {
+  return type == kImageType || type == kCompressedImageType || type == kCameraInfoType ||
+         type == kTfType;
+}
+
 struct BagTopic {
   std::string name;
   std::string type;    // ROS 1 style, e.g. "sensor_msgs/Image"

@@ -20,14 +20,8 @@ class McapBag final : public BagReader {
       absl::StatusOr<std::vector<McapChannel>> channels = (*reader)->Channels();
       if (!channels.ok()) return channels.status();
       for (const McapChannel& c : *channels) {
-        BagTopic& t = by_name[c.topic];
         const std::string type = Ros1TypeName(c.schema_name);
-        if (!t.name.empty() && t.type != type) {
-          return absl::InvalidArgumentError(absl::StrCat(file, ": topic ", c.topic, " is a ", type,
-                                                         " here and a ", t.type, " before"));
-        }
-        t.name = c.topic;
-        t.type = type;
+        if (absl::Status s = AddRos2Topic(file, c.topic, type, &by_name); !s.ok()) return s;
         encodings_[c.topic] = c.message_encoding;
       }
       readers_.push_back(*std::move(reader));

@@ -27,6 +27,18 @@ std::string Ros1TypeName(const std::string& ros2_type) {
   return absl::StrCat(ros2_type.substr(0, msg), "/", ros2_type.substr(msg + 5));
 }
 
+absl::Status AddRos2Topic(const std::string& file, const std::string& name, const std::string& type,
+                          std::map<std::string, BagTopic>* topics) {
+  BagTopic& t = (*topics)[name];
+  if (!t.name.empty() && t.type != type) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(file, ": topic ", name, " is a ", type, " here and a ", t.type, " before"));
+  }
+  t.name = name;
+  t.type = type;
+  return absl::OkStatus();
+}
+
 absl::Status CheckRos2Topics(const std::string& bag, const std::vector<BagTopic>& topics,
                              const std::map<std::string, std::string>& encodings,
                              const std::vector<std::string>& asked) {
@@ -36,8 +48,7 @@ absl::Status CheckRos2Topics(const std::string& bag, const std::vector<BagTopic>
       if (t.name == name) topic = &t;
     }
     if (topic == nullptr) return absl::InvalidArgumentError(absl::StrCat(bag, ": no topic ", name));
-    if (topic->type != kImageType && topic->type != kCompressedImageType &&
-        topic->type != kCameraInfoType && topic->type != kTfType) {
+    if (!IsFrameType(topic->type)) {
       return absl::InvalidArgumentError(
           absl::StrCat(bag, ": topic ", name, " is a ", topic->type, ", not a type frames use"));
     }

@@ -22,6 +22,12 @@ namespace skimap::bag {
 // "sensor_msgs/msg/Image" -> "sensor_msgs/Image"; other names unchanged.
 std::string Ros1TypeName(const std::string& ros2_type);
 
+// Adds topic `name` of ROS 1 type `type`, read from `file`, to `topics` (by name); the
+// same topic in several files of a split bag must keep its type (InvalidArgument naming
+// the file otherwise).
+absl::Status AddRos2Topic(const std::string& file, const std::string& name, const std::string& type,
+                          std::map<std::string, BagTopic>* topics);
+
 // InvalidArgument, naming `bag`, for an asked topic the bag lacks, one of a type frames do
 // not use, or one whose encoding (`encodings`: topic -> encoding) is not "cdr".
 absl::Status CheckRos2Topics(const std::string& bag, const std::vector<BagTopic>& topics,

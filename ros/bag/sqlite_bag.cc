@@ -97,13 +97,7 @@ class SqliteBag final : public BagReader {
         if (rc != SQLITE_ROW) return SqliteError(file, db->get(), rc, "reading topics");
         const std::string name = Text(q->get(), 1);
         const std::string type = Ros1TypeName(Text(q->get(), 2));
-        BagTopic& t = by_name[name];
-        if (!t.name.empty() && t.type != type) {
-          return absl::InvalidArgumentError(absl::StrCat(file, ": topic ", name, " is a ", type,
-                                                         " here and a ", t.type, " before"));
-        }
-        t.name = name;
-        t.type = type;
+        if (absl::Status s = AddRos2Topic(file, name, type, &by_name); !s.ok()) return s;
         encodings_[name] = Text(q->get(), 3);
         ids[sqlite3_column_int64(q->get(), 0)] = {name, type};
       }

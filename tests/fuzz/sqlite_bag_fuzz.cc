@@ -30,10 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (bag.ok()) {
     std::vector<std::string> topics;
     for (const bag::BagTopic& t : (*bag)->topics()) {
-      if (t.type == bag::kImageType || t.type == bag::kCompressedImageType ||
-          t.type == bag::kCameraInfoType || t.type == bag::kTfType) {
-        topics.push_back(t.name);
-      }
+      if (bag::IsFrameType(t.type)) topics.push_back(t.name);
     }
     (void)(*bag)->ForEach(topics, [](const bag::BagMessage& m) {
       if (m.topic == nullptr) fuzz::Fail("a message without a topic");
