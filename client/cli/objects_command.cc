@@ -16,7 +16,7 @@
 #include "sim/training_views.h"
 
 ABSL_FLAG(int, object, 0, "objects train: train only this obj_id (0 = every train/ object)");
-ABSL_FLAG(std::string, detector, "", "objects train: ORB, SIFT, AKAZE or BRISK (default ORB)");
+ABSL_FLAG(std::string, detector, "", "objects train: SIFT, ORB, AKAZE or BRISK (default SIFT)");
 ABSL_FLAG(std::string, name, "", "objects train: display name (default: objects.json)");
 ABSL_FLAG(int, frame_stride, 1, "objects train: use every n-th training frame");
 ABSL_FLAG(double, object_resolution, 0, "objects train: descriptor voxel in metres (0 = 0.01)");
@@ -43,7 +43,7 @@ ABSL_FLAG(std::string, view_effects, "clutter",
           "random background), lighting (a random light per view) and sensor (colour noise, "
           "Kinect depth noise); none: perfect renders on black; default: clutter, the best on the "
           "validation render (docs/recognition.md)");
-ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/100)");
+ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = stored/300)");
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
 ABSL_FLAG(int, tree_depth, 0,
           "objects build: forest (tree) depth, ClassifierParams.max_depth (0 = stored/24)");
@@ -277,6 +277,11 @@ absl::Status Build(ObjectClient& client) {
   std::printf("classifier ready: %d objects, %u classes, %u trees x depth %u, %.1f MiB\n",
               c.objects_size(), c.classes(), c.params().trees(), c.params().max_depth(),
               c.model_bytes() / 1048576.0);
+  std::printf(
+      "maps list its instances at score >= %g (scaled by size), fit >= %g, view "
+      "conflict <= %g (%s's; a map may set its own)\n",
+      c.params().min_instance_score(), c.params().min_instance_fit(),
+      c.params().max_view_conflict(), c.detector().c_str());
   return absl::OkStatus();
 }
 

@@ -99,11 +99,10 @@ ABSL_FLAG(int, min_view_frames, 30,
 ABSL_FLAG(double, max_view_distance, 3.5, "eval: metres; see --min_view_frames");
 ABSL_FLAG(double, min_instance_score, -1,
           "eval: the maps' min_instance_score (instances scoring less are not listed; -1 = "
-          "the server's default; 0 lists all, to sweep the threshold from --summary)");
-ABSL_FLAG(double, min_instance_fit, -1,
-          "eval: the maps' min_instance_fit (-1 = the server's default)");
+          "the classifier's; 0 lists all, to sweep the threshold from --summary)");
+ABSL_FLAG(double, min_instance_fit, -1, "eval: the maps' min_instance_fit (-1 = the classifier's)");
 ABSL_FLAG(double, max_view_conflict, -1,
-          "eval: the maps' max_view_conflict (-1 = the server's default; 1 lists all)");
+          "eval: the maps' max_view_conflict (-1 = the classifier's; 1 lists all)");
 ABSL_FLAG(bool, single_view, true,
           "eval: also score the single-view baseline (each frame alone: ClassifyImage + PnP)");
 ABSL_FLAG(std::string, instances_dir, "",
@@ -175,7 +174,7 @@ int main(int argc, char** argv) {
       "       skimap export --map=ID -o FILE [--with-journal]\n"
       "       skimap import FILE [--as=ID]\n"
       "       skimap objects ls|info ID|rm ID|train DATASET [--object=ID] "
-      "[--detector=ORB]|add MODEL --object=ID|build|classifier\n"
+      "[--detector=SIFT]|add MODEL --object=ID|build|classifier\n"
       "       skimap nodes\n"
       "       skimap health\n"
       "       skimap instances --map=ID [--box=X0,Y0,Z0,X1,Y1,Z1|--sphere=X,Y,Z,R] "

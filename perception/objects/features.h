@@ -27,8 +27,8 @@ class Feature2D;
 namespace skimap::objects {
 
 struct FeatureOptions {
-  std::string detector = "ORB";  // ORB | SIFT | AKAZE | BRISK
-  int max_features = 1000;       // per image (the strongest responses are kept), 1..100000
+  std::string detector = "SIFT";  // SIFT | ORB | AKAZE | BRISK
+  int max_features = 1000;        // per image (the strongest responses are kept), 1..100000
   friend bool operator==(const FeatureOptions&, const FeatureOptions&) = default;
 };
 

@@ -29,12 +29,28 @@
 
 namespace skimap::objects {
 
+// The thresholds a map applies before it lists an instance recognised with this database
+// (docs/recognition.md, "Global instances") where the map's own options leave them unset:
+// calibrated per detector on validation renders (DefaultInstanceThresholds). < 0: the
+// detector's.
+struct InstanceThresholds {
+  double min_score = -1;          // >= 0, at the reference surface (scaled by an object's)
+  double min_fit = -1;            // in [0, 1]
+  double max_view_conflict = -1;  // in [0, 1]
+  friend bool operator==(const InstanceThresholds&, const InstanceThresholds&) = default;
+};
+
+// Each detector's instance thresholds: SIFT's and ORB's chosen on the validation renders
+// (docs/recognition.md); AKAZE and BRISK, not calibrated, take ORB's (binary descriptors
+// like it). REQUIRES: a canonical detector name (CanonicalDetectorName).
+InstanceThresholds DefaultInstanceThresholds(const std::string& detector);
+
 // Everything that shapes a database; stored with it (training parameters table).
 struct ObjectDatabaseParams {
   FeatureOptions features;                      // detector name and features per image
   double resolution = 0.01;                     // descriptor-voxel edge, metres, in [0.001, 1]
   MeanShiftOptions mean_shift{.bandwidth = 0};  // bandwidth <= 0: the detector's default
-  int classes_per_object = 100;                 // k, >= 1
+  int classes_per_object = 300;                 // k, >= 1
   ForestOptions forest;                         // trees x depth (paper: 24 x 24)
   int max_samples_per_class = 0;                // forest training samples per class; 0 = all
   double verify_threshold = 0;                  // <= 0: the detector's default (docs/objects.md)
@@ -45,11 +61,12 @@ struct ObjectDatabaseParams {
   // up to this factor (1 = off, at most 8), so that the forest knows an object's features
   // as a camera sees them from that many times the training distance (docs/objects.md).
   double zoom_out = 4;
+  InstanceThresholds instances;  // what maps recognising with the database list
   friend bool operator==(const ObjectDatabaseParams&, const ObjectDatabaseParams&) = default;
 };
 
-// Replaces "default" (<= 0) bandwidth / verify_threshold with the detector's values and
-// validates every field; InvalidArgument naming the field.
+// Replaces "default" (<= 0) bandwidth / verify_threshold and (< 0) instance thresholds with
+// the detector's values and validates every field; InvalidArgument naming the field.
 absl::StatusOr<ObjectDatabaseParams> ResolveParams(const ObjectDatabaseParams& params);
 
 // One classification candidate.

@@ -56,6 +56,7 @@ absl::StatusOr<objects::ObjectDatabaseParams> ApplyTrainingParams(
     // Detector defaults follow the new detector unless given.
     if (!api.has_bandwidth()) p.mean_shift.bandwidth = 0;
     p.verify_threshold = 0;
+    p.instances = {};
   }
   absl::StatusOr<objects::ObjectDatabaseParams> r = objects::ResolveParams(p);
   if (!r.ok()) return Prefixed("params.", r.status());
@@ -73,6 +74,9 @@ absl::StatusOr<objects::ObjectDatabaseParams> ApplyClassifierParams(
     p.max_samples_per_class = static_cast<int>(api.max_samples_per_class());
   if (api.has_verify_threshold()) p.verify_threshold = api.verify_threshold();
   if (api.has_top_n()) p.top_n = static_cast<int>(api.top_n());
+  if (api.has_min_instance_score()) p.instances.min_score = api.min_instance_score();
+  if (api.has_min_instance_fit()) p.instances.min_fit = api.min_instance_fit();
+  if (api.has_max_view_conflict()) p.instances.max_view_conflict = api.max_view_conflict();
   absl::StatusOr<objects::ObjectDatabaseParams> r = objects::ResolveParams(p);
   if (!r.ok()) return Prefixed("params.", r.status());
   return r;
@@ -117,6 +121,9 @@ v1::ClassifierParams ToApiClassifierParams(const objects::ObjectDatabaseParams& 
   out.set_max_samples_per_class(p.max_samples_per_class);
   out.set_verify_threshold(p.verify_threshold);
   out.set_top_n(p.top_n);
+  out.set_min_instance_score(p.instances.min_score);
+  out.set_min_instance_fit(p.instances.min_fit);
+  out.set_max_view_conflict(p.instances.max_view_conflict);
   return out;
 }
 

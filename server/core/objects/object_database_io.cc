@@ -81,7 +81,10 @@ std::map<std::string, std::string> ParamsToText(const ObjectDatabaseParams& p) {
           {"top_n", absl::StrCat(p.top_n)},
           {"mask_erosion_px", absl::StrCat(p.mask_erosion_px)},
           {"rgb_stride_px", absl::StrCat(p.rgb_stride_px)},
-          {"zoom_out", D(p.zoom_out)}};
+          {"zoom_out", D(p.zoom_out)},
+          {"min_instance_score", D(p.instances.min_score)},
+          {"min_instance_fit", D(p.instances.min_fit)},
+          {"max_view_conflict", D(p.instances.max_view_conflict)}};
 }
 
 absl::StatusOr<ObjectDatabaseParams> ParamsFromText(const std::map<std::string, std::string>& t) {
@@ -113,6 +116,11 @@ absl::StatusOr<ObjectDatabaseParams> ParamsFromText(const std::map<std::string, 
   if (!r.status().ok()) return r.status();
   p.zoom_out = 1;  // databases written before zoom-outs have none
   if (t.contains("zoom_out")) r.Get("zoom_out", &p.zoom_out);
+  // Databases written before instance thresholds were stored get their detector's.
+  p.instances = DefaultInstanceThresholds(p.features.detector);
+  if (t.contains("min_instance_score")) r.Get("min_instance_score", &p.instances.min_score);
+  if (t.contains("min_instance_fit")) r.Get("min_instance_fit", &p.instances.min_fit);
+  if (t.contains("max_view_conflict")) r.Get("max_view_conflict", &p.instances.max_view_conflict);
   if (!r.status().ok()) return r.status();
   p.mean_shift.kernel = static_cast<MeanShiftKernel>(kernel);
   return p;

@@ -106,7 +106,8 @@ absl::StatusOr<v1::ListInstancesResponse> InstanceQueries::ListInstances(
     }
   }
   const size_t limit = request.page_size() == 0 ? kDefaultPageSize : request.page_size();
-  const InstanceVisibility& visible = m.config().recognition.visible;
+  const InstanceVisibility visible =
+      ResolveVisibility(m.config().recognition.visible, m.recognition_model());
   const std::vector<int32_t> objects(request.obj_ids().begin(), request.obj_ids().end());
   v1::ListInstancesResponse response;
   std::vector<Instance> found;
@@ -167,7 +168,8 @@ absl::StatusOr<v1::Instance> InstanceQueries::GetInstance(
     return std::nullopt;
   });
   if (!found.has_value() ||
-      !IsVisible(m.config().recognition.visible, *found, m.recognition_model())) {
+      !IsVisible(ResolveVisibility(m.config().recognition.visible, m.recognition_model()), *found,
+                 m.recognition_model())) {
     return absl::NotFoundError(absl::StrCat("instance ", id, " not found in ", MapName(m.id())));
   }
   return ToProto(*found, m.recognition_model(), m.id());

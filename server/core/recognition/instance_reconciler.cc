@@ -376,6 +376,11 @@ int ReconcileInstances(const recognition::RecognitionModel& model, const Reconci
   return Reconciler(model, params, request, state).Run();
 }
 
+InstanceVisibility ResolveVisibility(const VisibilityOptions& options,
+                                     const recognition::RecognitionModel* model) {
+  return options.Resolve(model == nullptr ? nullptr : &model->db().params().instances);
+}
+
 bool IsVisible(const InstanceVisibility& visible, const Instance& instance,
                const recognition::RecognitionModel* model) {
   const int index = model == nullptr ? -1 : model->FindObject(static_cast<int>(instance.object_id));

@@ -63,6 +63,10 @@ int ReconcileInstances(const recognition::RecognitionModel& model, const Reconci
 // `model` (null, or an object it does not hold: the unscaled min_score).
 bool IsVisible(const InstanceVisibility& visible, const Instance& instance,
                const recognition::RecognitionModel* model);
+// The thresholds in force for a map with these options recognising with `model` (null:
+// none loaded): each one the map leaves unset is the model's database's.
+InstanceVisibility ResolveVisibility(const VisibilityOptions& options,
+                                     const recognition::RecognitionModel* model);
 
 }  // namespace skimap::server
 

@@ -219,8 +219,9 @@ void MapRecognition::ApplyHypothesesOnWorker(const RecognitionJob& job,
       state_->dirty_hypotheses.insert(ChunkOf(key));
       objects.insert(v.object_index);
     }
-    const ReconcileParams params{.map_id = options_.map_id,
-                                 .visible = options_.config->recognition.visible};
+    const ReconcileParams params{
+        .map_id = options_.map_id,
+        .visible = ResolveVisibility(options_.config->recognition.visible, model_.get())};
     for (int o : objects) {
       events += ReconcileInstances(*model_, params,
                                    {.object_index = o,
@@ -296,8 +297,9 @@ void MapRecognition::ApplyMoves(MapState& state) {
     r.hi = r.hi.cwiseMax(t0).cwiseMax(t1);
   }
   hypothesis_moves_.clear();
-  const ReconcileParams params{.map_id = options_.map_id,
-                               .visible = options_.config->recognition.visible};
+  const ReconcileParams params{
+      .map_id = options_.map_id,
+      .visible = ResolveVisibility(options_.config->recognition.visible, model_.get())};
   // Twice: the second pass sees every object's instances in their new places (one object's
   // instance can rule out another's where they would overlap).
   for (int pass = 0; pass < 2; ++pass) {

@@ -4,6 +4,7 @@
 
 #include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
+#include "perception/objects/object_database.h"
 
 namespace skimap::server {
 namespace {
@@ -101,10 +102,21 @@ v1::RecognitionOptions ToProto(const RecognitionConfig& c) {
   o.set_hough_bin(c.hough_bin);
   o.set_policy(c.every_frame ? v1::RecognitionOptions::EVERY_FRAME
                              : v1::RecognitionOptions::NEWEST);
-  o.set_min_instance_score(c.visible.min_score);
-  o.set_min_instance_fit(c.visible.min_fit);
-  o.set_max_view_conflict(c.visible.max_view_conflict);
+  if (c.visible.min_score.has_value()) o.set_min_instance_score(*c.visible.min_score);
+  if (c.visible.min_fit.has_value()) o.set_min_instance_fit(*c.visible.min_fit);
+  if (c.visible.max_view_conflict.has_value())
+    o.set_max_view_conflict(*c.visible.max_view_conflict);
   return o;
+}
+
+InstanceVisibility VisibilityOptions::Resolve(const objects::InstanceThresholds* classifier) const {
+  const objects::InstanceThresholds t =
+      classifier != nullptr
+          ? *classifier
+          : objects::DefaultInstanceThresholds(objects::FeatureOptions{}.detector);
+  return {.min_score = min_score.value_or(t.min_score),
+          .min_fit = min_fit.value_or(t.min_fit),
+          .max_view_conflict = max_view_conflict.value_or(t.max_view_conflict)};
 }
 
 }  // namespace skimap::server

@@ -93,6 +93,11 @@ TEST_F(ObjectServiceErrorsTest, StateErrorsAreFailedPreconditionOrAlreadyExists)
   absl::Status trees = client_->BuildClassifier(bad).status();
   EXPECT_EQ(trees.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(trees.message(), HasSubstr("params.trees"));
+  v1::BuildClassifierRequest fit;
+  fit.mutable_params()->set_min_instance_fit(2);
+  absl::Status unfit = client_->BuildClassifier(fit).status();
+  EXPECT_EQ(unfit.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(unfit.message(), HasSubstr("params.min_instance_fit"));
   // Nothing was stored for the failed calls.
   absl::StatusOr<std::vector<v1::Object>> all = client_->ListAllObjects();
   ASSERT_TRUE(all.ok());

@@ -80,10 +80,11 @@ inline std::vector<v1::ClassifyImageRequest> HeldOutImages(int obj_id) {
   return out;
 }
 
-// Streams `views` as object obj_id.
+// Streams `views` as object obj_id. ORB unless said: the fastest detector (these tests are
+// about the service; ObjectCodecTest checks that the default is SIFT).
 inline absl::StatusOr<v1::Object> Train(client::ObjectClient& c, int obj_id,
                                         const std::vector<v1::TrainingFrame>& views,
-                                        const std::string& detector = "") {
+                                        const std::string& detector = "ORB") {
   v1::TrainObjectRequest header;
   header.set_obj_id(obj_id);
   header.set_display_name(absl::StrCat("object ", obj_id));

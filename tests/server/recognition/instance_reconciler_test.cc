@@ -93,7 +93,8 @@ class ReconcilerTest : public ::testing::Test {
 
   int Reconcile(const recognition::Sphere& region) {
     return ReconcileInstances(
-        model_, {.map_id = "m", .visible = {.min_score = 8, .min_fit = 0}},
+        model_,
+        {.map_id = "m", .visible = {.min_score = 8, .min_fit = 0, .max_view_conflict = 0.1}},
         {.object_index = 0, .region = region, .frame = 5, .frame_supports = true}, &state_);
   }
 
@@ -215,13 +216,15 @@ class ReconcilerViewTest : public ::testing::Test {
     return ReconcileInViews(centre, std::span<const ViewFrame>(&view_, 1));
   }
   int ReconcileInViews(const Eigen::Vector3f& centre, std::span<const ViewFrame> views) {
-    return ReconcileInstances(model_, {.map_id = "m", .visible = {.min_score = 8, .min_fit = 0}},
-                              {.object_index = 0,
-                               .region = {.centre = centre, .radius = 0.5f},
-                               .frame = 5,
-                               .frame_supports = true,
-                               .views = views},
-                              &state_);
+    return ReconcileInstances(
+        model_,
+        {.map_id = "m", .visible = {.min_score = 8, .min_fit = 0, .max_view_conflict = 0.1}},
+        {.object_index = 0,
+         .region = {.centre = centre, .radius = 0.5f},
+         .frame = 5,
+         .frame_supports = true,
+         .views = views},
+        &state_);
   }
 
   std::vector<v1::InstanceEvent::Type> EventTypes() const {
@@ -453,6 +456,23 @@ TEST(VisibilityTest, TheScoreAskedGrowsWithTheSquareRootOfTheObjectsSurface) {
     i.score = 40;
     EXPECT_TRUE(IsVisible(visible, i, &odd)) << resolution;
   }
+}
+
+// A map that leaves its thresholds unset lists with its classifier's: an ORB database
+// brings ORB's (objects::DefaultInstanceThresholds), a map's own value wins.
+TEST(VisibilityTest, UnsetThresholdsAreTheClassifiersOwn) {
+  const recognition::RecognitionModel model = *recognition::RecognitionModel::Create(
+      std::make_shared<objects::ObjectDatabase>(objects::SmallOrbDatabase({{{0, 0, 0}}}, true)),
+      {});
+  const InstanceVisibility orb = ResolveVisibility({}, &model);
+  EXPECT_EQ(orb.min_score, 112);
+  EXPECT_EQ(orb.min_fit, 0.4);
+  EXPECT_EQ(orb.max_view_conflict, 0.02);
+  const InstanceVisibility own = ResolveVisibility({.min_fit = 0.1}, &model);
+  EXPECT_EQ(own.min_score, 112);
+  EXPECT_EQ(own.min_fit, 0.1);
+  const InstanceVisibility none = ResolveVisibility({}, nullptr);  // the default detector's
+  EXPECT_EQ(none.min_score, 52);
 }
 
 }  // namespace

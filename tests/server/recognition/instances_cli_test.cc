@@ -159,6 +159,11 @@ TEST(EvalCliTest, TheMiniSceneScoresEveryObjectAndWritesTheCsv) {
         << run.out;
   }
   EXPECT_TRUE(absl::StrContains(run.out, "classifier ready: 3 objects")) << run.out;
+  // The world's classifier is ORB: its maps list with ORB's thresholds.
+  EXPECT_TRUE(absl::StrContains(run.out,
+                                "score >= 112 (scaled by size), fit >= 0.4, view "
+                                "conflict <= 0.02 (ORB's"))
+      << run.out;
   // scene, frames, truths, then per method: instances, true positives, precision, recall,
   // AR_MSSD; then frames/s.
   for (const std::string& prefix : {absl::StrCat("| ", scene, " |"), std::string("| all |")}) {
