@@ -1,14 +1,17 @@
 #include "client/cli/bag_frame_source.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <condition_variable>
 #include <cstdio>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <thread>
@@ -127,8 +130,17 @@ bool IsRos1Bag(const std::string& path) {
   return in.gcount() == sizeof magic && std::memcmp(magic, "#ROSBAG V2.0", sizeof magic) == 0;
 }
 
-// Reads the ROS 1 bag at `path` in a child process first (bag_frame_source.h).
-absl::Status CheckRos1BagInChild(const std::string& path) {
+// The child's time for the bag at `path` when the caller leaves it to us: 60 s plus 1 s per
+// 20 MB (rosbag reads a few hundred MB/s here).
+double DefaultCheckSeconds(const std::string& path) {
+  std::error_code ec;
+  const uintmax_t bytes = std::filesystem::file_size(path, ec);
+  return 60 + (ec ? 0 : static_cast<double>(bytes) / 20e6);
+}
+
+// Reads the ROS 1 bag at `path` in a child process first (bag_frame_source.h), for at most
+// `limit_seconds`.
+absl::Status CheckRos1BagInChild(const std::string& path, double limit_seconds) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
@@ -142,8 +154,24 @@ absl::Status CheckRos1BagInChild(const std::string& path) {
   if (rc != 0) {
     return absl::InternalError(absl::StrCat("cannot start the bag check: ", std::strerror(rc)));
   }
+  const auto start = std::chrono::steady_clock::now();
+  const auto limit = std::chrono::duration<double>(limit_seconds);
   int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  bool timed_out = false;
+  for (;;) {
+    const pid_t r = waitpid(pid, &status, WNOHANG);
+    if (r == pid || (r < 0 && errno != EINTR)) break;
+    if (!timed_out && std::chrono::steady_clock::now() - start > limit) {
+      timed_out = true;  // killed, then reaped by the next waitpid
+      kill(pid, SIGKILL);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (timed_out) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": the ROS 1 bag library (Debian's rosbag) took more than ", limit_seconds,
+        " s to read this file (--bag_check_seconds): it is damaged, hostile or too large for "
+        "the limit; nothing was streamed"));
   }
   if (WIFSIGNALED(status)) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -161,9 +189,11 @@ int ReadRos1BagInThisProcess(const std::string& path) {
 
 absl::StatusOr<std::unique_ptr<FrameSource>> OpenBagFrameSource(const std::string& path,
                                                                 const bag::BagFrameOptions& options,
-                                                                v1::DepthEncoding depth_encoding) {
+                                                                v1::DepthEncoding depth_encoding,
+                                                                double check_seconds) {
   if (IsRos1Bag(path)) {
-    if (absl::Status s = CheckRos1BagInChild(path); !s.ok()) return s;
+    const double limit = check_seconds > 0 ? check_seconds : DefaultCheckSeconds(path);
+    if (absl::Status s = CheckRos1BagInChild(path, limit); !s.ok()) return s;
   }
   absl::StatusOr<std::unique_ptr<bag::BagFrames>> bag = bag::BagFrames::Open(path, options);
   if (!bag.ok()) return bag.status();

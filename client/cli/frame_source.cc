@@ -32,7 +32,7 @@ absl::StatusOr<std::unique_ptr<FrameSource>> OpenFrameSource(const std::string& 
     bag.sync_tolerance = options.bag.sync_tolerance;
     bag.every = options.every;
     bag.max_frames = options.max_frames;
-    return OpenBagFrameSource(path, bag, options.depth_encoding);
+    return OpenBagFrameSource(path, bag, options.depth_encoding, options.bag.check_seconds);
 #else
     return absl::UnimplementedError(absl::StrCat(
         path, ": this skimap was built without ROS (scripts/deps.sh installs it): no bags"));

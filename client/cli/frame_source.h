@@ -40,6 +40,9 @@ struct BagSourceOptions {
   std::string depth_topic, color_topic, camera_info_topic;  // color_topic "-": no colour
   std::string fixed_frame, camera_frame;
   double sync_tolerance = 0.02;  // seconds between a depth image and its colour image
+  // A ROS 1 bag is first read by a child process (bag_frame_source.h) for at most this
+  // long; 0 = 60 s plus 1 s per 20 MB of bag.
+  double check_seconds = 0;
 };
 
 // What OpenFrameSource selects and how it encodes (the `skimap stream` flags).

@@ -30,6 +30,7 @@
 // `authorization: Bearer <token>`; --tls_ca=PEM [--tls_cert=PEM --tls_key=PEM] connect
 // over TLS (with a client certificate: mTLS).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -89,6 +90,9 @@ ABSL_FLAG(std::string, camera_frame, "",
           "stream BAG: the camera's tf frame (default: the depth image's frame_id)");
 ABSL_FLAG(double, sync_tolerance, 0.02,
           "stream BAG: seconds between a depth image and the colour image it pairs with");
+ABSL_FLAG(double, bag_check_seconds, 0,
+          "stream BAG: a ROS 1 bag is first read by a child process, refused when it takes "
+          "longer than this (0 = 60 s plus 1 s per 20 MB of bag)");
 ABSL_FLAG(double, max_translation_mm, 30, "eval: a true positive is within this distance");
 ABSL_FLAG(double, max_rotation_deg, 10, "eval: ... and within this angle");
 ABSL_FLAG(std::string, csv, "", "eval: write one row per ground-truth object to this file");
@@ -167,7 +171,7 @@ int main(int argc, char** argv) {
       "skimap [--server=host:port] maps ls|create ID|rm ID|info ID\n"
       "       skimap stream DATASET|BAG --map=ID [--fps=N] [--every=N] [--max_frames=N] "
       "[--depth_topic=T --color_topic=T --camera_info_topic=T --fixed_frame=F "
-      "--camera_frame=F --sync_tolerance=S]\n"
+      "--camera_frame=F --sync_tolerance=S --bag_check_seconds=S]\n"
       "       skimap grid --map=ID -o FILE.yaml\n"
       "       skimap heightmap --map=ID -o FILE.png|FILE.tiff\n"
       "       skimap voxels --map=ID -o FILE.ply\n"
@@ -295,6 +299,10 @@ int main(int argc, char** argv) {
     options.bag.sync_tolerance = absl::GetFlag(FLAGS_sync_tolerance);
     if (!(options.bag.sync_tolerance >= 0)) {
       return Fail(absl::InvalidArgumentError("--sync_tolerance must be >= 0 seconds"));
+    }
+    options.bag.check_seconds = absl::GetFlag(FLAGS_bag_check_seconds);
+    if (!(options.bag.check_seconds >= 0) || !std::isfinite(options.bag.check_seconds)) {
+      return Fail(absl::InvalidArgumentError("--bag_check_seconds must be finite and >= 0"));
     }
     const std::string recognition = absl::GetFlag(FLAGS_recognition);
     if (recognition == "newest" || recognition == "every_frame") {

@@ -300,6 +300,28 @@ TEST_F(BagStreamTest, ABagThatCrashesTheRosbagLibraryIsRefusedByName) {
   EXPECT_TRUE(server_.Running());
 }
 
+// The child's read has a time limit: a bag it has not read within --bag_check_seconds
+// (here 1 ms: the child has not even started) is refused by name, the child killed,
+// nothing streamed; the same bag with the default limit streams.
+TEST_F(BagStreamTest, ABagTheCheckCannotReadInTimeIsRefusedByName) {
+  const std::string bag = WriteRos1Bag("slow.bag");
+  const CommandRun run = Stream(bag, "slow", "--bag_check_seconds=0.001");
+  ASSERT_TRUE(WIFEXITED(run.status)) << run.output;
+  EXPECT_NE(WEXITSTATUS(run.status), 0);
+  EXPECT_NE(run.output.find("slow.bag: the ROS 1 bag library (Debian's rosbag) took more than "
+                            "0.001 s to read this file (--bag_check_seconds)"),
+            std::string::npos)
+      << run.output;
+  EXPECT_EQ(Frames("slow"), 0u);
+  const CommandRun bad = Stream(bag, "slow", "--bag_check_seconds=-1");
+  EXPECT_NE(bad.output.find("--bag_check_seconds must be finite and >= 0"), std::string::npos)
+      << bad.output;
+  const CommandRun ok = Stream(bag, "slow");
+  EXPECT_EQ(ok.status, 0) << ok.output;
+  EXPECT_EQ(Frames("slow"), 10u);
+  EXPECT_TRUE(server_.Running());
+}
+
 TEST_F(BagStreamTest, AnImageNotMatchingItsDataIsRefusedByTopicAndTheRestStreams) {
   const std::string bag =
       WriteRos1Bag("short.bag", [](int i, sensor_msgs::Image* depth, sensor_msgs::Image*) {
