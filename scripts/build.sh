@@ -4,7 +4,7 @@
 #   release  optimized build of everything (the default)
 #   asan     ASan + UBSan with clang, line tables, for the test suite; also the libFuzzer
 #            targets (tests/fuzz) and clang's -Wthread-safety analysis as errors: one clang
-#            build serves all three, so the test command compiles the tree twice, not four
+#            build serves all three, so the test command compiles the libraries twice, not four
 #            times
 #   tsan     ThreadSanitizer, for the concurrency tests
 #   bench    release + the side-by-side benchmarks (run scripts/deps.sh --bench first)
