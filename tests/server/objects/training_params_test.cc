@@ -110,6 +110,13 @@ TEST(TrainingParamsTest, EachDetectorBringsItsOwnInstanceThresholds) {
   absl::StatusOr<objects::ObjectDatabaseParams> resolved = objects::ResolveParams(*back);
   ASSERT_TRUE(resolved.ok()) << resolved.status();
   EXPECT_EQ(*resolved, *back);
+  // A corrupt stored threshold is refused, naming it, never used.
+  for (const char* bad : {"nan", "1.5"}) {
+    text["min_instance_fit"] = bad;
+    absl::StatusOr<objects::ObjectDatabaseParams> read = objects::ParamsFromText(text);
+    if (read.ok()) read = objects::ResolveParams(*read);
+    EXPECT_EQ(read.status().code(), absl::StatusCode::kInvalidArgument) << bad;
+  }
 }
 
 }  // namespace
