@@ -1,5 +1,7 @@
 #include "ros/bridge/bridge_params.h"
 
+#include <cmath>
+
 #include "absl/strings/str_cat.h"
 
 namespace skimap::rosbridge {
@@ -49,6 +51,7 @@ absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& pnh) {
   pnh.param("publish_height_map", p.publish_height_map, p.publish_height_map);
   pnh.param("save_dir", p.save_dir, p.save_dir);
   pnh.param("stats_file", p.stats_file, p.stats_file);
+  pnh.param("shutdown_timeout", p.shutdown_timeout, p.shutdown_timeout);
   const auto bad = [](const char* name, auto value, const char* rule) {
     return absl::InvalidArgumentError(absl::StrCat("~", name, ": ", value, " ", rule));
   };
@@ -60,6 +63,8 @@ absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& pnh) {
   if (p.window < 1) return bad("window", p.window, "must be >= 1");
   if (p.queue_frames < 1) return bad("queue_frames", p.queue_frames, "must be >= 1");
   if (!(p.publish_rate >= 0)) return bad("publish_rate", p.publish_rate, "must be >= 0");
+  if (!(p.shutdown_timeout > 0) || !std::isfinite(p.shutdown_timeout))
+    return bad("shutdown_timeout", p.shutdown_timeout, "must be a finite number > 0");
   if (!(p.inflation_radius >= 0))
     return bad("inflation_radius", p.inflation_radius, "must be >= 0");
   if (absl::StatusOr<v1::DepthEncoding> e = ParseDepthEncoding(p.depth_encoding); !e.ok()) {

@@ -38,6 +38,10 @@ struct BridgeParams {
   bool publish_height_map = true;
   std::string save_dir;    // ~save_map writes under it; "" = the service is off
   std::string stats_file;  // at exit: counters and latencies as JSON
+  // Seconds the node may take to release skimapd's stream once its report is written
+  // (after SIGINT / SIGTERM); a skimapd that stopped reading holds gRPC's blocking write,
+  // and the node then exits with status 2 instead of waiting for it.
+  double shutdown_timeout = 5.0;
 };
 
 // Reads the private parameters; InvalidArgument naming the parameter for a bad value.

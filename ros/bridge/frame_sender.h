@@ -61,7 +61,8 @@ class FrameSender {
   // Stops the stream: frames still queued are not sent; those in flight get up to 5 s for
   // their acks, then the call is cancelled. Known limit: a skimapd that stops reading
   // altogether (a stopped process, a hung host) leaves gRPC's blocking Write waiting even
-  // after the cancel, and this destructor with it (docs/ros.md, "Limits").
+  // after the cancel, and this destructor with it; the node then exits after
+  // ~shutdown_timeout (skimap_ros_main.cc).
   ~FrameSender();
 
   using Clock = std::chrono::steady_clock;

@@ -6,11 +6,21 @@
 //       depth/image:=/camera/aligned_depth_to_color/image_raw
 //       rgb/image:=/camera/color/image_raw rgb/camera_info:=/camera/color/camera_info
 //   (one command line), or roslaunch skimap_ros skimap_ros.launch (launch/).
+//
+// Stopping: the first SIGINT / SIGTERM stops the node in order (bridge.h, Finish: the
+// frames in flight get up to 10 s for their acks, the last map is published, the report
+// written), then the stream is released; should that take longer than ~shutdown_timeout
+// (a skimapd that stopped reading holds gRPC's blocking write), the node exits with
+// status 2. A second signal exits at once (status 130).
 #include <ros/ros.h>
 
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <mutex>
 #include <string>
 #include <thread>
 
@@ -18,7 +28,39 @@
 
 namespace {
 std::atomic<bool> stop{false};
-void OnSignal(int) { stop = true; }
+void OnSignal(int) {
+  if (stop.exchange(true)) std::_Exit(130);  // the second signal: no more waiting
+}
+
+// Exits the process with status 2 unless Done() comes within `timeout` seconds.
+class ExitUnlessDoneIn {
+ public:
+  explicit ExitUnlessDoneIn(double timeout)
+      : thread_([this, timeout] {
+          std::unique_lock<std::mutex> lock(mu_);
+          if (cv_.wait_for(lock, std::chrono::duration<double>(timeout), [&] { return done_; }))
+            return;
+          std::fprintf(stderr,
+                       "skimap-ros: skimapd did not release the stream within %.1f s "
+                       "(~shutdown_timeout); exiting without it\n",
+                       timeout);
+          std::_Exit(2);
+        }) {}
+  void Done() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  std::thread thread_;  // last: it starts once the members it uses exist
+};
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -45,8 +87,10 @@ int main(int argc, char** argv) {
   }
   while (!stop && ros::ok()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   (*bridge)->Finish();
+  ExitUnlessDoneIn watchdog(params->shutdown_timeout);
   ros::shutdown();
   spinner.stop();  // no callback runs while the bridge is destroyed
   bridge->reset();
+  watchdog.Done();
   return 0;
 }

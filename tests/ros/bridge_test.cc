@@ -15,11 +15,14 @@
 #include <sys/wait.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <sstream>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
@@ -474,12 +477,46 @@ TEST_F(BridgeTest, TheBridgeReconnectsAfterSkimapdRestarts) {
 }
 
 TEST_F(BridgeTest, ABadParameterStopsTheBridgeWithItsName) {
-  StartBridge("bad", {"_depth_encoding:=jpeg"});
-  int status = -1;
-  waitpid(bridge_, &status, 0);
-  bridge_ = -1;
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1);
-  EXPECT_NE(BridgeLog().find("~depth_encoding: \"jpeg\""), std::string::npos) << BridgeLog();
+  for (const auto& [arg, message] : std::vector<std::pair<std::string, std::string>>{
+           {"_depth_encoding:=jpeg", "~depth_encoding: \"jpeg\""},
+           {"_shutdown_timeout:=0.0", "~shutdown_timeout: 0 must be a finite number > 0"}}) {
+    StartBridge("bad", {arg});
+    int status = -1;
+    waitpid(bridge_, &status, 0);
+    bridge_ = -1;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << arg;
+    EXPECT_NE(BridgeLog().find(message), std::string::npos) << BridgeLog();
+  }
+}
+
+// skimapd stops reading for good (SIGSTOP, a hung host) while frames are in flight: SIGINT
+// still ends the node, after its wait for the acks (10 s) and ~shutdown_timeout for the
+// stream, with status 2 and its report written.
+TEST_F(BridgeTest, AHungSkimapdDoesNotHoldTheNodesShutdown) {
+  ros::NodeHandle nh;
+  StartBridge("hung", {"_queue_frames:=2", "_window:=4", "_shutdown_timeout:=2.0"});
+  const std::vector<MmFrame> ten = frames_;
+  for (int i = 10; i < 30; ++i) {  // 30 frames, the real ones cycled, each its own stamp
+    MmFrame f = ten[i % 10];
+    f.index = i;
+    f.stamp = ros::Time(1000.0 + i / 30.0);
+    frames_.push_back(f);
+  }
+  PublishFrames(nh, {}, false, [&] { server_.Signal(SIGSTOP); });
+  ros::WallDuration(1.0).sleep();
+  const auto start = std::chrono::steady_clock::now();
+  const int status = StopBridge();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  server_.Signal(SIGCONT);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << status << BridgeLog();
+  EXPECT_LT(seconds, 10 + 2 + 10) << BridgeLog();
+  EXPECT_NE(BridgeLog().find("did not release the stream within 2.0 s"), std::string::npos)
+      << BridgeLog();
+  std::ifstream stats(dir_ / "stats.json");
+  std::stringstream text;
+  text << stats.rdbuf();
+  EXPECT_NE(text.str().find("\"offered\": 30"), std::string::npos) << text.str();
 }
 
 }  // namespace
