@@ -122,6 +122,16 @@ class BridgeTest : public ::testing::Test {
     ASSERT_GT(bridge_, 0);
   }
   // SIGINT, as rosnode kill / Ctrl-C; the exit status.
+  // Makes frames_ `n` frames long: the real ones cycled, each with its own index and stamp.
+  void CycleFramesTo(int n) {
+    const std::vector<MmFrame> real = frames_;
+    for (int i = int(real.size()); i < n; ++i) {
+      MmFrame f = real[i % real.size()];
+      f.index = i;
+      f.stamp = ros::Time(1000.0 + i / 30.0);
+      frames_.push_back(f);
+    }
+  }
   int StopBridge() {
     if (bridge_ <= 0) return -1;
     kill(bridge_, SIGINT);
@@ -401,13 +411,7 @@ TEST_F(BridgeTest, AFrameWithoutAPoseIsCountedNotSent) {
 TEST_F(BridgeTest, AStalledServerMakesTheBridgeDropAndCountNotQueue) {
   ros::NodeHandle nh;
   StartBridge("stall", {"_queue_frames:=2", "_window:=4"});
-  const std::vector<MmFrame> ten = frames_;
-  for (int i = 10; i < 30; ++i) {  // 30 frames, the real ones cycled, each its own stamp
-    MmFrame f = ten[i % 10];
-    f.index = i;
-    f.stamp = ros::Time(1000.0 + i / 30.0);
-    frames_.push_back(f);
-  }
+  CycleFramesTo(30);
   PublishFrames(nh, {}, false, [&] { server_.Signal(SIGSTOP); });
   ros::WallDuration(1.0).sleep();
   server_.Signal(SIGCONT);
@@ -495,13 +499,7 @@ TEST_F(BridgeTest, ABadParameterStopsTheBridgeWithItsName) {
 TEST_F(BridgeTest, AHungSkimapdDoesNotHoldTheNodesShutdown) {
   ros::NodeHandle nh;
   StartBridge("hung", {"_queue_frames:=2", "_window:=4", "_shutdown_timeout:=2.0"});
-  const std::vector<MmFrame> ten = frames_;
-  for (int i = 10; i < 30; ++i) {  // 30 frames, the real ones cycled, each its own stamp
-    MmFrame f = ten[i % 10];
-    f.index = i;
-    f.stamp = ros::Time(1000.0 + i / 30.0);
-    frames_.push_back(f);
-  }
+  CycleFramesTo(30);
   PublishFrames(nh, {}, false, [&] { server_.Signal(SIGSTOP); });
   ros::WallDuration(1.0).sleep();
   const auto start = std::chrono::steady_clock::now();
