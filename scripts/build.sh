@@ -6,7 +6,7 @@
 #            targets (tests/fuzz) and clang's -Wthread-safety analysis as errors: one clang
 #            build serves all three, so the test command compiles the libraries twice, not four
 #            times
-#   tsan     ThreadSanitizer, for the concurrency tests
+#   tsan     ThreadSanitizer with clang, line tables, for the concurrency tests
 #   bench    release + the side-by-side benchmarks (run scripts/deps.sh --bench first)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,8 +23,11 @@ case "$flavour" in
   asan) args+=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKIMAP_SANITIZE=address
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -gline-tables-only -DNDEBUG"
     -DCMAKE_CXX_COMPILER=clang++-14 -DSKIMAP_BUILD_FUZZ=ON -DSKIMAP_THREAD_SAFETY=ON) ;;
+  # TSan with clang too: a third less compile time than gcc for the same -O2 (a server/core
+  # batch 19 s against 29 s), and clang's is the reference ThreadSanitizer.
   tsan) args+=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DSKIMAP_SANITIZE=thread
-    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG") ;;
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -gline-tables-only -DNDEBUG"
+    -DCMAKE_CXX_COMPILER=clang++-14) ;;
   bench) args+=(-DSKIMAP_BUILD_BENCH=ON) ;;
   *) echo "unknown flavour: $flavour" >&2; exit 2 ;;
 esac

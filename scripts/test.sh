@@ -28,6 +28,15 @@ jobs=$(nproc)
 bash scripts/build.sh release release_only_tests
 (cd build/release && ctest --output-on-failure -j "$((jobs + 1))" -L release_only --timeout 600)
 bash scripts/build.sh asan
+# The TSan build runs beside the ASan suite at the lowest CPU priority: it takes the CPU the
+# suite leaves idle (its tests wait on processes, sockets and a ROS master: a sixth of two
+# cores) and yields whenever a test wants it.
+# Its own process group, stopped with the script if a test fails.
+mkdir -p build
+setsid nice -n 19 bash scripts/build.sh tsan skimap_concurrency_test \
+  skimap_server_concurrency_test >build/tsan-build.log 2>&1 &
+tsan_build=$!
+trap 'kill -- -"$tsan_build" 2>/dev/null || true' EXIT
 # Every other test once, under ASan+UBSan (halt on the first report), the fuzz targets apart.
 # Third-party leaks and races (Debian's uninstrumented libraries): tests/lsan.supp and
 # tests/tsan.supp.
@@ -36,5 +45,9 @@ bash scripts/build.sh asan
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --output-on-failure -j "$jobs" -LE "fuzz|release_only" --timeout 900)
 (cd build/asan && ctest --output-on-failure -j "$jobs" -L fuzz --timeout 900)
-bash scripts/build.sh tsan skimap_concurrency_test skimap_server_concurrency_test
+if ! wait "$tsan_build"; then
+  cat build/tsan-build.log
+  echo "test: the TSan build failed" >&2
+  exit 1
+fi
 (cd build/tsan && TSAN_OPTIONS="halt_on_error=1:suppressions=$root/tests/tsan.supp" ctest --output-on-failure -L concurrency --timeout 900)

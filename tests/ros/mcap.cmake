@@ -10,7 +10,7 @@ find_program(SKIMAP_MCAP_NODE node)
 if(NOT SKIMAP_MCAP_NODE)
   set(SKIMAP_MCAP_NODE "")
 endif()
-skimap_add_test(mcap_reader_test
+skimap_add_test(mcap_reader_test SHORT_TESTS
   SOURCES mcap_reader_test.cc
   LIBS skimap_bag opencv_core opencv_imgcodecs opencv_imgproc nlohmann_json::nlohmann_json
     Eigen3::Eigen
@@ -18,7 +18,7 @@ skimap_add_test(mcap_reader_test
 target_compile_definitions(mcap_reader_test PRIVATE
   SKIMAP_NODE="${SKIMAP_MCAP_NODE}"
   SKIMAP_YCBV_SCENE="${PROJECT_SOURCE_DIR}/../shared/data/ycbv-0000/test/000000")
-skimap_add_test(cdr_messages_test
+skimap_add_test(cdr_messages_test SHORT_TESTS
   SOURCES cdr_messages_test.cc
   LIBS skimap_bag LABELS unit)
 # ROS 1's generated message headers use std::allocator<void>::rebind, which C++20 removed.
