@@ -5,7 +5,8 @@
 # - everything else on one clang build under ASan+UBSan (compiling it with
 #   -Werror=thread-safety checks the lock annotations), then every fuzz target briefly
 #   (SKIMAP_FUZZ_SECONDS each, default 20);
-# - the concurrency tests under ThreadSanitizer.
+# - the concurrency tests under ThreadSanitizer (clang), built beside the ASan suite at the
+#   lowest CPU priority.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)

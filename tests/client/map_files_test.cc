@@ -12,14 +12,13 @@
 #include <sstream>
 #include <string>
 
+#include "tests/common/test_temp_dir.h"
+
 namespace skimap::client {
 namespace {
 
 std::string TempPath(const std::string& name) {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("skimap_client_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
+  return skimap::testing::TestTempDir("skimap_client_test") + "/" + name;
 }
 
 std::string Slurp(const std::string& path) {

@@ -11,9 +11,11 @@
 #include <unistd.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <system_error>
 
 #include "sim/model_io.h"
 #include "sim/training_views.h"
@@ -27,6 +29,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     fs::create_directories(d);
     return d;
   }();
+  // Removed when libFuzzer exits normally; a crash keeps it, beside its artifact.
+  static const bool cleanup = std::atexit([] {
+                                std::error_code ec;
+                                fs::remove_all(dir, ec);
+                              }) == 0;
+  (void)cleanup;
   fuzz::FuzzInput in(data, size);
   constexpr const char* kExtensions[] = {"obj", "ply", "gltf", "glb"};
   const fs::path path = dir / (std::string("model.") + kExtensions[in.U8() % 4]);

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -22,6 +23,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::string path = (std::filesystem::temp_directory_path() /
                                    ("sqlite_bag_fuzz_" + std::to_string(getpid()) + ".db3"))
                                       .string();
+  // Removed when libFuzzer exits normally; a crash keeps it, beside its artifact.
+  static const bool cleanup = std::atexit([] { std::remove(path.c_str()); }) == 0;
+  (void)cleanup;
   FILE* f = std::fopen(path.c_str(), "wb");
   if (f == nullptr) fuzz::Fail("cannot write the input file");
   if (size > 0 && std::fwrite(data, 1, size, f) != size) fuzz::Fail("short write");

@@ -10,19 +10,13 @@
 #include "storage/object_store.h"
 #include "storage/schema.h"
 #include "storage/sqlite.h"
+#include "tests/common/test_temp_dir.h"
 
 namespace skimap::storage {
 namespace {
 namespace fs = std::filesystem;
 
-std::string TempDir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() /
-                       ("skimap_storage_" + std::to_string(getpid()) + "_" + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
+std::string TempDir() { return skimap::testing::TestTempDir("skimap_storage"); }
 
 StoredObjectDatabase SampleRecords() {
   StoredObjectDatabase db;

@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "sim/generator.h"
+#include "tests/common/test_temp_dir.h"
 
 namespace skimap::objects::testing {
 namespace fs = std::filesystem;
@@ -39,13 +40,6 @@ std::string MiniDataset() {
   return root.string();
 }
 
-std::string TempDir() {
-  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() /
-                       ("skimap_objects_" + std::to_string(getpid()) + "_" + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
+std::string TempDir() { return skimap::testing::TestTempDir("skimap_objects"); }
 
 }  // namespace skimap::objects::testing

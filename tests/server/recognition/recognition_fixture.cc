@@ -18,6 +18,7 @@
 #include "client/object_client.h"
 #include "dataset/reader.h"
 #include "sim/generator.h"
+#include "tests/common/test_temp_dir.h"
 
 namespace skimap::testing {
 namespace fs = std::filesystem;
@@ -166,10 +167,7 @@ RecognitionWorld* Build() {
   auto* w = new RecognitionWorld;
   w->dataset = MiniWithScene();
   w->scene = w->dataset + "/test/000001";
-  w->data_dir =
-      (fs::temp_directory_path() / absl::StrCat("skimap_recognition_", getpid())).string();
-  fs::remove_all(w->data_dir);
-  fs::create_directories(w->data_dir);
+  w->data_dir = TestTempDir("skimap_recognition");
   w->server = Start(w->data_dir);
   if (w->server == nullptr) return w;
   w->client = client::MapClient::Connect(absl::StrCat("127.0.0.1:", w->server->grpc_port()),
