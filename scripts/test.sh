@@ -29,10 +29,10 @@ jobs=$(nproc)
 bash scripts/build.sh release release_only_tests
 (cd build/release && ctest --output-on-failure -j "$((jobs + 1))" -L release_only --timeout 600)
 bash scripts/build.sh asan
-# The TSan build runs beside the ASan suite at the lowest CPU priority: it takes the CPU the
-# suite leaves idle (its tests wait on processes, sockets and a ROS master: a sixth of two
-# cores) and yields whenever a test wants it.
-# Its own process group, stopped with the script if a test fails.
+# The TSan build runs beside the ASan suite at the lowest CPU priority, so that it mostly
+# takes the CPU the suite leaves idle (its tests wait on processes, sockets and a ROS master:
+# a sixth of two cores): 505 s for both in a cold run, 556 s one after the other
+# (docs/testing.md). Its own process group, stopped with the script if a test fails.
 mkdir -p build
 setsid nice -n 19 bash scripts/build.sh tsan skimap_concurrency_test \
   skimap_server_concurrency_test >build/tsan-build.log 2>&1 &
