@@ -19,8 +19,8 @@ namespace fs = std::filesystem;
 
 class GeneratorTest : public ::testing::Test {
  protected:
-  // ctest runs each test in its own process: the suite renders the scene once per test
-  // with 2 threads; the determinism test renders it again with 1.
+  // The suite runs in one process (ONE_PROCESS): it renders the scene once with 2 threads;
+  // the determinism test renders it again with 1.
   static void SetUpTestSuite() {
     root_ = new fs::path(fs::temp_directory_path() / ("skimap_sim_" + std::to_string(::getpid())));
     fs::remove_all(*root_);
