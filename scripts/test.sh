@@ -6,7 +6,7 @@
 #   -Werror=thread-safety checks the lock annotations), then every fuzz target briefly
 #   (SKIMAP_FUZZ_SECONDS each, default 20);
 # - the concurrency tests under ThreadSanitizer (clang), built beside the ASan suite at the
-#   lowest CPU priority.
+#   lowest CPU priority, as the ASan build is beside the release pass.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -26,18 +26,40 @@ jobs=$(nproc)
 # `release_only_tests` builds what they run, no more.
 # One test more than cores: the failover tests mostly wait for the cluster (about 160 s of
 # the pass), so the compute-bound tests keep both cores meanwhile.
-bash scripts/build.sh release release_only_tests
-(cd build/release && ctest --output-on-failure -j "$((jobs + 1))" -L release_only --timeout 600)
-bash scripts/build.sh asan
-# The TSan build runs beside the ASan suite at the lowest CPU priority, so that it mostly
-# takes the CPU the suite leaves idle (its tests wait on processes, sockets and a ROS master:
-# a sixth of two cores): 505 s for both in a cold run, 556 s one after the other
-# (docs/testing.md). Its own process group, stopped with the script if a test fails.
+# Builds that run beside a test pass take the CPU its tests leave idle: at the lowest CPU
+# priority, in their own session (a process group the trap stops if a test fails). With the
+# kernel's autogroup scheduling (on by default), `nice` weighs a task only against others of
+# its session and every session gets an equal share, so `setsid nice -n 19` alone would take
+# half the CPU from the tests; the session's own autogroup nice is set to 19 as well
+# (docs/testing.md).
 mkdir -p build
-setsid nice -n 19 bash scripts/build.sh tsan skimap_concurrency_test \
-  skimap_server_concurrency_test >build/tsan-build.log 2>&1 &
+background_pids=()
+trap 'for p in "${background_pids[@]}"; do kill -- -"$p" 2>/dev/null || true; done' EXIT
+in_background() { # LOG COMMAND...: starts COMMAND at the lowest priority; its pid in $!
+  local log=$1
+  shift
+  setsid bash -c 'echo 19 >/proc/self/autogroup 2>/dev/null || true; exec nice -n 19 "$@"' \
+    _ "$@" >"$log" 2>&1 &
+  background_pids+=("$!")
+}
+wait_background() { # PID LOG WHAT: waits for a background build; its log if it failed
+  if ! wait "$1"; then
+    cat "$2"
+    echo "test: $3 failed" >&2
+    exit 1
+  fi
+}
+bash scripts/build.sh release release_only_tests
+# The clang (ASan) build starts beside the release pass, whose failover tests mostly wait.
+in_background build/asan-build.log bash scripts/build.sh asan
+asan_build=$!
+(cd build/release && ctest --output-on-failure -j "$((jobs + 1))" -L release_only --timeout 600)
+wait_background "$asan_build" build/asan-build.log "the ASan build"
+# The TSan build beside the ASan suite, whose tests wait on processes, sockets and a ROS
+# master.
+in_background build/tsan-build.log bash scripts/build.sh tsan skimap_concurrency_test \
+  skimap_server_concurrency_test
 tsan_build=$!
-trap 'kill -- -"$tsan_build" 2>/dev/null || true' EXIT
 # Every other test once, under ASan+UBSan (halt on the first report), the fuzz targets apart.
 # Third-party leaks and races (Debian's uninstrumented libraries): tests/lsan.supp and
 # tests/tsan.supp.
@@ -46,9 +68,5 @@ trap 'kill -- -"$tsan_build" 2>/dev/null || true' EXIT
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --output-on-failure -j "$jobs" -LE "fuzz|release_only" --timeout 900)
 (cd build/asan && ctest --output-on-failure -j "$jobs" -L fuzz --timeout 900)
-if ! wait "$tsan_build"; then
-  cat build/tsan-build.log
-  echo "test: the TSan build failed" >&2
-  exit 1
-fi
+wait_background "$tsan_build" build/tsan-build.log "the TSan build"
 (cd build/tsan && TSAN_OPTIONS="halt_on_error=1:suppressions=$root/tests/tsan.supp" ctest --output-on-failure -L concurrency --timeout 900)
