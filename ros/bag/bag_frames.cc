@@ -3,6 +3,7 @@
 #include <tf2/buffer_core.h>
 #include <tf2/exceptions.h>
 
+#include <boost/make_shared.hpp>
 #include <cmath>
 #include <deque>
 #include <map>
@@ -12,6 +13,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "ros/bag/bag_reader.h"
+#include "ros/bag/compressed_depth.h"
+#include "ros/bag/rectify.h"
 #include "ros/bag/ros_frames.h"
 
 namespace skimap::bag {
@@ -100,14 +103,18 @@ absl::Status ChooseTopics(const std::vector<BagTopic>& topics, const BagFrameOpt
                           BagFrameStats* chosen) {
   std::vector<const BagTopic*> depth, color, info;
   for (const BagTopic& t : topics) {
-    if (t.type == kImageType && Says(t.name, {"depth"})) depth.push_back(&t);
+    // Depth: raw images, or image_transport's compressedDepth (compressed_depth.h).
+    if ((t.type == kImageType || t.type == kCompressedImageType) && Says(t.name, {"depth"})) {
+      depth.push_back(&t);
+    }
     if ((t.type == kImageType || t.type == kCompressedImageType) && !Says(t.name, {"depth"})) {
       color.push_back(&t);
     }
     if (t.type == kCameraInfoType) info.push_back(&t);
   }
   if (!options.depth_topic.empty()) {
-    if (absl::Status s = CheckGiven(topics, options.depth_topic, {kImageType}, "--depth_topic");
+    if (absl::Status s = CheckGiven(topics, options.depth_topic, {kImageType, kCompressedImageType},
+                                    "--depth_topic");
         !s.ok()) {
       return s;
     }
@@ -116,6 +123,8 @@ absl::Status ChooseTopics(const std::vector<BagTopic>& topics, const BagFrameOpt
     depth = Prefer(depth, [](const BagTopic& t) {
       return Says(t.name, {"registered", "aligned"});
     });
+    // A raw depth image and its twin "<raw>/compressedDepth": the raw one.
+    depth = Prefer(depth, [](const BagTopic& t) { return t.type == kImageType; });
     if (absl::Status s = PickOne(depth, "depth image", "--depth_topic", &chosen->depth_topic);
         !s.ok()) {
       return s;
@@ -155,7 +164,10 @@ absl::Status ChooseTopics(const std::vector<BagTopic>& topics, const BagFrameOpt
     const auto beside = [&](const std::string& image_topic) -> const BagTopic* {
       if (image_topic.empty()) return nullptr;
       std::string ns = Namespace(image_topic);
-      if (absl::EndsWith(image_topic, "/compressed")) ns = Namespace(ns);
+      if (absl::EndsWith(image_topic, "/compressed") ||
+          absl::EndsWith(image_topic, "/compressedDepth")) {
+        ns = Namespace(ns);
+      }
       const BagTopic* t = Find(topics, ns + "/camera_info");
       return t != nullptr && t->type == kCameraInfoType ? t : nullptr;
     };
@@ -214,7 +226,8 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
     if (m.info != nullptr) {
       if (infos.empty() || infos.back().second->K != m.info->K ||
           infos.back().second->width != m.info->width ||
-          infos.back().second->height != m.info->height) {
+          infos.back().second->height != m.info->height || infos.back().second->D != m.info->D ||
+          infos.back().second->distortion_model != m.info->distortion_model) {
         infos.emplace_back(m.info->header.stamp, m.info);
       }
       return absl::OkStatus();
@@ -239,6 +252,7 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
   std::vector<std::string> image_topics = {stats.depth_topic};
   if (!stats.color_topic.empty()) image_topics.push_back(stats.color_topic);
   std::deque<Pending> depths, colors;
+  Rectifier rectifier;
   uint64_t paired = 0;
   bool enough = false;
   const auto emit = [&](const Pending& depth, const Pending* color) -> absl::Status {
@@ -248,8 +262,19 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
       enough = true;
       return absl::OkStatus();
     }
+    // compressedDepth is decoded here, once the frame is kept.
+    sensor_msgs::ImageConstPtr depth_image = depth.image;
+    if (depth_image == nullptr) {
+      absl::StatusOr<sensor_msgs::Image> decoded =
+          DecodeCompressedDepth(*depth.compressed, stats.depth_topic);
+      if (!decoded.ok()) {
+        ++stats.frames;
+        return fn(decoded.status());
+      }
+      depth_image = boost::make_shared<const sensor_msgs::Image>(*std::move(decoded));
+    }
     const std::string& camera =
-        options.camera_frame.empty() ? depth.image->header.frame_id : options.camera_frame;
+        options.camera_frame.empty() ? depth_image->header.frame_id : options.camera_frame;
     if (stats.fixed_frame.empty()) {
       stats.fixed_frame = options.fixed_frame;
       if (stats.fixed_frame.empty()) {
@@ -274,8 +299,15 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
       c.topic = stats.color_topic;
     }
     ++stats.frames;
-    return fn(MakeRosFrame(*depth.image, stats.depth_topic, c, *infos[i - 1].second,
-                           stats.camera_info_topic, T_wc));
+    const sensor_msgs::CameraInfo& info = *infos[i - 1].second;
+    absl::StatusOr<RosFrame> frame =
+        MakeRosFrame(*depth_image, stats.depth_topic, c, info, stats.camera_info_topic, T_wc);
+    if (frame.ok()) {
+      if (absl::Status r = rectifier.Rectify(info, stats.camera_info_topic, &*frame); !r.ok()) {
+        frame = r;
+      }
+    }
+    return fn(std::move(frame));
   };
   // A colour image pairs with the depth image nearest in stamp within the tolerance; what
   // has waited a second of recording without a partner is dropped.
@@ -302,7 +334,8 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
     if (*m.topic == stats.depth_topic) {
       ++stats.depth_images;
       p.image = m.image;
-      p.stamp = m.image->header.stamp;
+      p.compressed = m.compressed;
+      p.stamp = m.image != nullptr ? m.image->header.stamp : m.compressed->header.stamp;
       if (stats.color_topic.empty()) return emit(p, nullptr);
       prune(p.stamp);
       auto c = nearest(colors, p.stamp);

@@ -7,11 +7,15 @@
 // sync_tolerance is sent without colour only when the bag has no colour topic; otherwise it
 // is skipped and counted, as is one whose pose tf cannot give at its stamp (before the
 // first transform, a gap in the tree). Each frame takes the last camera_info (with another
-// K or size than the one before) stamped at or before it, frames before the first take the
-// first; a bag without camera_info is refused.
+// K, size or distortion than the one before) stamped at or before it, frames before the
+// first take the first; a bag without camera_info is refused. Frames of a camera_info with
+// distortion are undistorted (rectify.h).
 //
-// Topics, when not given: the one Image topic whose name says depth (preferring
-// "registered" / "aligned" ones), the one Image or CompressedImage topic whose name does not
+// Topics, when not given: the one depth topic, an Image or an image_transport
+// compressedDepth CompressedImage (compressed_depth.h) whose name says depth (preferring
+// "registered" / "aligned" ones, then a raw image over its "/compressedDepth" twin; a
+// compressedDepth message that does not decode fails its frame only), the one Image or
+// CompressedImage topic whose name does not
 // (preferring a raw image over its /compressed twin, and names saying color or rgb), the
 // CameraInfo beside the depth topic, else beside the colour topic, else the only one. More
 // than one candidate left: InvalidArgument listing them and the flag to choose with.

@@ -5,8 +5,9 @@
 // skimap-ros bridge, so a bag and a live robot make the same frames.
 //
 // The depth image is assumed registered to the colour image (same size, same camera:
-// depth_registered / aligned_depth_to_color topics) and rectified: CameraInfo's K is used,
-// its distortion is not. Every check names the topic and the field:
+// depth_registered / aligned_depth_to_color topics). CameraInfo's K is the frame's
+// intrinsics; its distortion is not looked at here: Rectifier (rectify.h) undoes it on
+// the frame made. Every check names the topic and the field:
 //   "/camera/depth/image_raw: data holds 1000 bytes, height 480 x step 1280 needs 614400".
 //
 // Thread safety: pure functions of their arguments.

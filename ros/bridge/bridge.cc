@@ -1,22 +1,20 @@
 #include "ros/bridge/bridge.h"
 
-#include <message_filters/subscriber.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <algorithm>
-#include <boost/bind/bind.hpp>
 #include <filesystem>
 #include <fstream>
 
 #include "absl/strings/str_cat.h"
 #include "client/frame_depth.h"
 #include "client/map_files.h"
+#include "ros/bag/rectify.h"
 #include "ros/bag/ros_frames.h"
 #include "ros/bridge/bridge_report.h"
+#include "ros/bridge/camera_input.h"
 #include "ros/bridge/ros_convert.h"
 #include "skimap_ros/InstancesInBox.h"
 #include "skimap_ros/InstancesInSphere.h"
@@ -27,7 +25,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using sensor_msgs::CameraInfo;
-using sensor_msgs::CompressedImage;
 using sensor_msgs::Image;
 
 }  // namespace
@@ -70,28 +67,12 @@ class Bridge::Impl {
 
     tf_ = std::make_unique<tf2_ros::Buffer>();
     listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_, nh_);
-    depth_sub_.subscribe(nh_, "depth/image", params_.sync_queue);
-    info_sub_.subscribe(nh_, params_.use_color ? "rgb/camera_info" : "depth/camera_info",
-                        params_.sync_queue);
-    if (!params_.use_color) {
-      depth_only_sync_ = std::make_unique<DepthOnlySync>(DepthOnlyPolicy(params_.sync_queue),
-                                                         depth_sub_, info_sub_);
-      depth_only_sync_->registerCallback(
-          boost::bind(&Impl::OnDepthOnly, this, boost::placeholders::_1, boost::placeholders::_2));
-    } else if (params_.compressed_color) {
-      compressed_sub_.subscribe(nh_, "rgb/image/compressed", params_.sync_queue);
-      compressed_sync_ = std::make_unique<CompressedSync>(CompressedPolicy(params_.sync_queue),
-                                                          depth_sub_, compressed_sub_, info_sub_);
-      compressed_sync_->registerCallback(
-          boost::bind(&Impl::OnCompressed, this, boost::placeholders::_1, boost::placeholders::_2,
-                      boost::placeholders::_3));
-    } else {
-      color_sub_.subscribe(nh_, "rgb/image", params_.sync_queue);
-      sync_ = std::make_unique<RawSync>(RawPolicy(params_.sync_queue), depth_sub_, color_sub_,
-                                        info_sub_);
-      sync_->registerCallback(boost::bind(&Impl::OnRaw, this, boost::placeholders::_1,
-                                          boost::placeholders::_2, boost::placeholders::_3));
-    }
+    camera_ = std::make_unique<CameraInput>(
+        nh_, params_,
+        [this](const Image& depth, const bag::ColorMessage& color, const CameraInfo& info) {
+          OnFrame(depth, color, info);
+        },
+        [this](const absl::Status& s) { Refused(s); });
     pose_updates_ = nh_.subscribe("pose_updates", 10, &Impl::OnPoseUpdates, this);
 
     map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, /*latch=*/true);
@@ -124,32 +105,9 @@ class Bridge::Impl {
   }
 
  private:
-  using RawPolicy = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo>;
-  using RawSync = message_filters::Synchronizer<RawPolicy>;
-  using CompressedPolicy =
-      message_filters::sync_policies::ApproximateTime<Image, CompressedImage, CameraInfo>;
-  using CompressedSync = message_filters::Synchronizer<CompressedPolicy>;
-  using DepthOnlyPolicy = message_filters::sync_policies::ApproximateTime<Image, CameraInfo>;
-  using DepthOnlySync = message_filters::Synchronizer<DepthOnlyPolicy>;
-
-  void OnDepthOnly(const Image::ConstPtr& depth, const CameraInfo::ConstPtr& info) {
-    OnFrame(*depth, bag::ColorMessage(), *info);  // voxels get grey
-  }
-
-  void OnRaw(const Image::ConstPtr& depth, const Image::ConstPtr& image,
-             const CameraInfo::ConstPtr& info) {
-    bag::ColorMessage color;
-    color.image = image.get();
-    color.topic = color_sub_.getTopic();
-    OnFrame(*depth, color, *info);
-  }
-
-  void OnCompressed(const Image::ConstPtr& depth, const CompressedImage::ConstPtr& image,
-                    const CameraInfo::ConstPtr& info) {
-    bag::ColorMessage color;
-    color.compressed = image.get();
-    color.topic = compressed_sub_.getTopic();
-    OnFrame(*depth, color, *info);
+  void Refused(const absl::Status& s) {
+    ++bad_;
+    ROS_WARN_THROTTLE(5, "skimap-ros: frame refused: %s", std::string(s.message()).c_str());
   }
 
   void OnFrame(const Image& depth, const bag::ColorMessage& color, const CameraInfo& info) {
@@ -172,15 +130,15 @@ class Bridge::Impl {
     T_wc.translation() = Eigen::Vector3d(T.transform.translation.x, T.transform.translation.y,
                                          T.transform.translation.z);
     absl::StatusOr<bag::RosFrame> frame =
-        bag::MakeRosFrame(depth, depth_sub_.getTopic(), color, info, info_sub_.getTopic(), T_wc);
+        bag::MakeRosFrame(depth, camera_->depth_topic(), color, info, camera_->info_topic(), T_wc);
     absl::Status s = frame.status();
+    if (s.ok()) s = rectifier_.Rectify(info, camera_->info_topic(), &*frame);
     if (s.ok()) {
       s = client::SetFrameDepth(frame->depth_mm.data(), frame->width, frame->height, &frame->frame,
                                 encoding_);
     }
     if (!s.ok()) {
-      ++bad_;
-      ROS_WARN_THROTTLE(5, "skimap-ros: frame refused: %s", std::string(s.message()).c_str());
+      Refused(s);
       return;
     }
     sender_->Offer(std::move(frame->frame), depth.header.stamp.toNSec(), received);
@@ -371,12 +329,8 @@ class Bridge::Impl {
   std::unique_ptr<tf2_ros::Buffer> tf_;
   std::unique_ptr<tf2_ros::TransformListener> listener_;
   tf2_ros::TransformBroadcaster broadcaster_;
-  message_filters::Subscriber<Image> depth_sub_, color_sub_;
-  message_filters::Subscriber<CompressedImage> compressed_sub_;
-  message_filters::Subscriber<CameraInfo> info_sub_;
-  std::unique_ptr<RawSync> sync_;
-  std::unique_ptr<CompressedSync> compressed_sync_;
-  std::unique_ptr<DepthOnlySync> depth_only_sync_;
+  bag::Rectifier rectifier_;             // undoes the camera_info's distortion, if any
+  std::unique_ptr<CameraInput> camera_;  // after what its callbacks use: destroyed first
   ros::Subscriber pose_updates_;
   ros::Publisher map_pub_, height_pub_, height_info_pub_, markers_pub_, path_pub_;
   ros::ServiceServer box_srv_, sphere_srv_, save_srv_;

@@ -1,7 +1,9 @@
 // Bridge: the skimap-ros node. A robot's RGB-D camera in, skimapd's map out.
 //
 // In (topics relative to the node's namespace, remappable):
-//   depth/image        sensor_msgs/Image, 16UC1 (mm) or 32FC1 (m), registered to colour
+//   depth/image        sensor_msgs/Image, 16UC1 (mm) or 32FC1 (m), registered to colour,
+//                      or with ~compressed_depth depth/image/compressedDepth, image_transport's
+//                      compressedDepth (ros/bag/compressed_depth.h)
 //   rgb/image          sensor_msgs/Image rgb8 / bgr8 / rgba8 / bgra8 / mono8, or with
 //                      ~compressed_color rgb/image/compressed, a sensor_msgs/CompressedImage
 //   rgb/camera_info    sensor_msgs/CameraInfo (with ~use_color false: depth/camera_info,

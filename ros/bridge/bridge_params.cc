@@ -41,6 +41,7 @@ absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& pnh) {
   pnh.param("camera_frame", p.camera_frame, p.camera_frame);
   pnh.param("tf_wait", p.tf_wait, p.tf_wait);
   pnh.param("compressed_color", p.compressed_color, p.compressed_color);
+  pnh.param("compressed_depth", p.compressed_depth, p.compressed_depth);
   pnh.param("use_color", p.use_color, p.use_color);
   pnh.param("sync_queue", p.sync_queue, p.sync_queue);
   pnh.param("depth_encoding", p.depth_encoding, p.depth_encoding);

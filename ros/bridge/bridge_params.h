@@ -28,6 +28,7 @@ struct BridgeParams {
   std::string camera_frame;                           // "" = the depth image's header.frame_id
   double tf_wait = 0.1;                               // seconds to wait for a frame's transform
   bool compressed_color = false;
+  bool compressed_depth = false;        // depth/image/compressedDepth instead of depth/image
   bool use_color = true;                // false: depth/image + depth/camera_info only
   int sync_queue = 10;                  // message_filters queue per topic
   std::string depth_encoding = "zstd";  // zstd | rvl | png16 | raw

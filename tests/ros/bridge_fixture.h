@@ -110,6 +110,7 @@ class BridgeTest : public ::testing::Test {
         "_save_dir:=" + (dir_ / "saved").string(),
         "_stats_file:=" + (dir_ / "stats.json").string(),
         "depth/image:=/cam/depth",
+        "depth/image/compressedDepth:=/cam/depth/compressedDepth",
         "rgb/image:=/cam/rgb",
         "rgb/image/compressed:=/cam/rgb/compressed",
         "rgb/camera_info:=/cam/info",
@@ -151,7 +152,10 @@ class BridgeTest : public ::testing::Test {
   // `ready` runs once the bridge listens, before the first frame.
   void PublishFrames(ros::NodeHandle& nh, const std::vector<int>& skip_tf = {},
                      bool compressed = false, const std::function<void()>& ready = nullptr) {
-    ros::Publisher depth = nh.advertise<sensor_msgs::Image>("/cam/depth", 10);
+    ros::Publisher depth =
+        compressed_depth_.empty()
+            ? nh.advertise<sensor_msgs::Image>("/cam/depth", 10)
+            : nh.advertise<sensor_msgs::CompressedImage>("/cam/depth/compressedDepth", 10);
     ros::Publisher rgb = compressed
                              ? nh.advertise<sensor_msgs::CompressedImage>("/cam/rgb/compressed", 10)
                              : nh.advertise<sensor_msgs::Image>("/cam/rgb", 10);
@@ -174,7 +178,11 @@ class BridgeTest : public ::testing::Test {
         tf.publish(WorldToLink(f));
       }
       ros::WallDuration(0.02).sleep();
-      depth.publish(DepthMessage(f));
+      if (compressed_depth_.empty()) {
+        depth.publish(DepthMessage(f));
+      } else {
+        depth.publish(CompressedDepthMessage(f, compressed_depth_));
+      }
       if (!publish_color_) {
       } else if (compressed) {
         sensor_msgs::CompressedImage png;
@@ -207,8 +215,9 @@ class BridgeTest : public ::testing::Test {
   SkimapdProcess server_{SKIMAPD_PATH, {"--worker_threads=1"}};
   std::unique_ptr<client::MapClient> client_;
   pid_t bridge_ = -1;
-  std::string server_override_;  // the bridge's ~server when not server_
-  bool publish_color_ = true;    // false: depth and camera_info only
+  std::string server_override_;   // the bridge's ~server when not server_
+  bool publish_color_ = true;     // false: depth and camera_info only
+  std::string compressed_depth_;  // "png" / "rvl": depth as compressedDepth with that codec
 };
 
 }  // namespace skimap::testing

@@ -175,6 +175,15 @@ TEST_F(BridgeTest, CompressedColourMakesTheSameMap) {
   EXPECT_EQ(Compare(Voxels(*client_, "maps/png"), Reference("png_ref")), "same");
 }
 
+TEST_F(BridgeTest, CompressedDepthMakesTheSameMap) {
+  ros::NodeHandle nh;
+  StartBridge("cd", {"_compressed_depth:=true"});
+  compressed_depth_ = "rvl";
+  PublishFrames(nh);
+  ASSERT_TRUE(WaitFor([&] { return Frames("cd") == 10; }, 60)) << BridgeLog();
+  EXPECT_EQ(Compare(Voxels(*client_, "maps/cd"), Reference("cd_ref")), "same");
+}
+
 TEST_F(BridgeTest, ADepthOnlyCameraMakesTheMapInGrey) {
   ros::NodeHandle nh;
   StartBridge("depth_only", {"_use_color:=false"});

@@ -12,17 +12,21 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstring>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
+#include "codec/rvl_codec.h"
 #include "dataset/reader.h"
 #include "skimap/v1/frames.pb.h"
 
@@ -130,6 +134,74 @@ inline sensor_msgs::Image ColorMessage(const MmFrame& f) {
   m.step = f.width * 3;
   m.data = f.rgb;
   return m;
+}
+
+// The depth as image_transport's compressedDepth transport publishes it (its format as
+// ros/bag/compressed_depth.h describes it, written here with OpenCV's PNG and our RVL):
+// 16UC1 millimetres with `codec` "png" or "rvl"; with `metres`, 32FC1 as quantised
+// inverse depth (the plugin's defaults: depth_max 10 m, depth_quantization 100).
+inline sensor_msgs::CompressedImage CompressedDepthMessage(const MmFrame& f,
+                                                           const std::string& codec,
+                                                           bool metres = false) {
+  sensor_msgs::CompressedImage m;
+  m.header = DepthMessage(f).header;
+  m.format = absl::StrCat(metres ? "32FC1" : "16UC1", "; compressedDepth ", codec);
+  std::vector<uint16_t> pixels = f.depth_mm;
+  float a = 0, b = 0;
+  if (metres) {
+    a = 100.0f * 101.0f;
+    b = 1.0f - a / 10.0f;
+    for (uint16_t& p : pixels) {
+      // As the plugin: the float inverse depth truncated to uint16; no measurement: 0.
+      p = p == 0 ? 0 : static_cast<uint16_t>(a / (p / 1000.0f) + b);
+    }
+  }
+  const int32_t format = 0;
+  m.data.resize(12);
+  std::memcpy(m.data.data(), &format, 4);
+  std::memcpy(m.data.data() + 4, &a, 4);
+  std::memcpy(m.data.data() + 8, &b, 4);
+  if (codec == "rvl") {
+    const uint32_t size[2] = {uint32_t(f.width), uint32_t(f.height)};
+    const auto* p = reinterpret_cast<const uint8_t*>(size);
+    m.data.insert(m.data.end(), p, p + 8);
+    const std::string rvl = perception::EncodeRvl(pixels.data(), pixels.size());
+    m.data.insert(m.data.end(), rvl.begin(), rvl.end());
+  } else {
+    cv::Mat image(f.height, f.width, CV_16UC1, pixels.data());
+    std::vector<uint8_t> png;
+    cv::imencode(".png", image, png);
+    m.data.insert(m.data.end(), png.begin(), png.end());
+  }
+  return m;
+}
+
+// A wide-angle lens's barrel distortion (plumb_bob): up to ~25 pixels at the corners of the
+// 640x480 frames.
+inline std::vector<double> LensDistortion() { return {-0.28, 0.07, 0.002, -0.001, 0}; }
+
+// `f` as a camera with LensDistortion() would have seen it: each distorted pixel takes the
+// depth and colour of the pixel its ray meets in `f` (nearest; outside `f`: none, black).
+inline MmFrame Distorted(const MmFrame& f) {
+  const cv::Matx33d K(f.fx, 0, f.cx, 0, f.fy, f.cy, 0, 0, 1);
+  std::vector<cv::Point2f> pixels, rays;
+  for (int y = 0; y < f.height; ++y) {
+    for (int x = 0; x < f.width; ++x) pixels.emplace_back(float(x), float(y));
+  }
+  cv::undistortPoints(pixels, rays, K, LensDistortion(), cv::noArray(), K);
+  cv::Mat map_x(f.height, f.width, CV_32FC1), map_y(f.height, f.width, CV_32FC1);
+  for (int i = 0; i < f.width * f.height; ++i) {
+    map_x.at<float>(i / f.width, i % f.width) = rays[i].x;
+    map_y.at<float>(i / f.width, i % f.width) = rays[i].y;
+  }
+  MmFrame out = f;
+  cv::Mat depth(f.height, f.width, CV_16UC1, const_cast<uint16_t*>(f.depth_mm.data()));
+  cv::Mat rgb(f.height, f.width, CV_8UC3, const_cast<uint8_t*>(f.rgb.data()));
+  cv::Mat depth_out(f.height, f.width, CV_16UC1, out.depth_mm.data());
+  cv::Mat rgb_out(f.height, f.width, CV_8UC3, out.rgb.data());
+  cv::remap(depth, depth_out, map_x, map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  cv::remap(rgb, rgb_out, map_x, map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar());
+  return out;
 }
 
 inline sensor_msgs::CameraInfo InfoMessage(const MmFrame& f) {

@@ -1,0 +1,140 @@
+#include "ros/bag/rectify.h"
+
+#include <cmath>
+#include <cstring>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "codec/image_codec.h"
+
+namespace skimap::bag {
+
+// One camera's undistortion maps (cv::remap's fixed-point form) and what they are for.
+struct Rectifier::Maps {
+  uint32_t width = 0, height = 0;
+  boost::array<double, 9> K{};
+  std::string model;
+  std::vector<double> D;
+  cv::Mat map1, map2;
+};
+
+namespace {
+
+bool SameCamera(const sensor_msgs::CameraInfo& info, uint32_t width, uint32_t height,
+                const boost::array<double, 9>& K, const std::string& model,
+                const std::vector<double>& D) {
+  return info.width == width && info.height == height && info.K == K &&
+         info.distortion_model == model && info.D == D;
+}
+
+}  // namespace
+
+bool HasDistortion(const sensor_msgs::CameraInfo& info) {
+  for (double d : info.D) {
+    if (d != 0) return true;
+  }
+  return false;
+}
+
+Rectifier::Rectifier() = default;
+Rectifier::~Rectifier() = default;
+
+absl::StatusOr<std::shared_ptr<const Rectifier::Maps>> Rectifier::MapsFor(
+    const sensor_msgs::CameraInfo& info, const std::string& info_topic) {
+  {
+    MutexLock lock(&mu_);
+    if (maps_ != nullptr &&
+        SameCamera(info, maps_->width, maps_->height, maps_->K, maps_->model, maps_->D)) {
+      return maps_;
+    }
+  }
+  for (size_t i = 0; i < info.D.size(); ++i) {
+    if (!std::isfinite(info.D[i])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(info_topic, ": D[", i, "] is ", info.D[i], " (must be finite)"));
+    }
+  }
+  const bool fisheye = info.distortion_model == "equidistant";
+  if (info.distortion_model == "plumb_bob" || info.distortion_model == "rational_polynomial") {
+    const size_t n = info.D.size();
+    if (n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(info_topic, ": D has ", n, " coefficients; ", info.distortion_model,
+                       " takes 5 (k1 k2 t1 t2 k3) or 8 (... k4 k5 k6)"));
+    }
+  } else if (fisheye) {
+    if (info.D.size() != 4) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          info_topic, ": D has ", info.D.size(), " coefficients; equidistant takes 4 (k1..k4)"));
+    }
+  } else {
+    return absl::InvalidArgumentError(absl::StrCat(
+        info_topic, ": distortion_model \"", info.distortion_model,
+        "\" with a non-zero D is not supported (plumb_bob, rational_polynomial, equidistant; "
+        "or rectified images with D all zero)"));
+  }
+  auto maps = std::make_shared<Maps>();
+  maps->width = info.width;
+  maps->height = info.height;
+  maps->K = info.K;
+  maps->model = info.distortion_model;
+  maps->D = info.D;
+  const cv::Matx33d K(info.K.data());
+  const cv::Mat D(info.D, /*copyData=*/true);
+  const cv::Size size(int(info.width), int(info.height));
+  try {
+    if (fisheye) {
+      cv::fisheye::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, size, CV_16SC2, maps->map1,
+                                           maps->map2);
+    } else {
+      cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, size, CV_16SC2, maps->map1,
+                                  maps->map2);
+    }
+  } catch (const cv::Exception& e) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(info_topic, ": the distortion cannot be undone: ", e.what()));
+  }
+  std::shared_ptr<const Maps> built = std::move(maps);
+  MutexLock lock(&mu_);
+  maps_ = built;
+  return built;
+}
+
+absl::Status Rectifier::Rectify(const sensor_msgs::CameraInfo& info, const std::string& info_topic,
+                                RosFrame* frame) {
+  if (!HasDistortion(info)) return absl::OkStatus();
+  absl::StatusOr<std::shared_ptr<const Maps>> maps = MapsFor(info, info_topic);
+  if (!maps.ok()) return maps.status();
+  const Maps& m = **maps;
+  const int w = frame->width, h = frame->height;
+  // The frame was made with this camera_info (MakeRosFrame checks the sizes agree).
+  const cv::Mat depth(h, w, CV_16UC1, frame->depth_mm.data());
+  cv::Mat rectified;
+  cv::remap(depth, rectified, m.map1, m.map2, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  std::memcpy(frame->depth_mm.data(), rectified.data, frame->depth_mm.size() * 2);
+
+  v1::Frame& f = frame->frame;
+  if (f.color_encoding() == v1::COLOR_ENCODING_NONE) return absl::OkStatus();
+  perception::ColorImage color;
+  if (f.color_encoding() == v1::COLOR_ENCODING_RAW_RGB8) {
+    color.width = w;
+    color.height = h;
+    color.rgb.assign(f.color().begin(), f.color().end());
+  } else {
+    const auto codec = f.color_encoding() == v1::COLOR_ENCODING_JPEG ? perception::ColorCodec::kJpeg
+                                                                     : perception::ColorCodec::kPng;
+    absl::StatusOr<perception::ColorImage> decoded =
+        perception::DecodeColor(codec, f.color(), w, h);
+    if (!decoded.ok()) return decoded.status();
+    color = *std::move(decoded);
+  }
+  const cv::Mat rgb(h, w, CV_8UC3, color.rgb.data());
+  cv::Mat out;
+  cv::remap(rgb, out, m.map1, m.map2, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar());
+  f.set_color(reinterpret_cast<const char*>(out.data), size_t(w) * h * 3);
+  f.set_color_encoding(v1::COLOR_ENCODING_RAW_RGB8);
+  return absl::OkStatus();
+}
+
+}  // namespace skimap::bag
