@@ -103,8 +103,10 @@ absl::Status ChooseTopics(const std::vector<BagTopic>& topics, const BagFrameOpt
                           BagFrameStats* chosen) {
   std::vector<const BagTopic*> depth, color, info;
   for (const BagTopic& t : topics) {
-    // Depth: raw images, or image_transport's compressedDepth (compressed_depth.h).
-    if ((t.type == kImageType || t.type == kCompressedImageType) && Says(t.name, {"depth"})) {
+    // Depth: raw images, or image_transport's compressedDepth (compressed_depth.h), which
+    // lives on "<raw topic>/compressedDepth".
+    if ((t.type == kImageType && Says(t.name, {"depth"})) ||
+        (t.type == kCompressedImageType && absl::EndsWith(t.name, "/compressedDepth"))) {
       depth.push_back(&t);
     }
     if ((t.type == kImageType || t.type == kCompressedImageType) && !Says(t.name, {"depth"})) {
@@ -262,11 +264,14 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
       enough = true;
       return absl::OkStatus();
     }
-    // compressedDepth is decoded here, once the frame is kept.
+    size_t i = infos.size();
+    while (i > 1 && infos[i - 1].first > depth.stamp) --i;
+    const sensor_msgs::CameraInfo& info = *infos[i - 1].second;
+    // compressedDepth is decoded here, once the frame is kept, at the camera_info's size.
     sensor_msgs::ImageConstPtr depth_image = depth.image;
     if (depth_image == nullptr) {
       absl::StatusOr<sensor_msgs::Image> decoded =
-          DecodeCompressedDepth(*depth.compressed, stats.depth_topic);
+          DecodeCompressedDepth(*depth.compressed, stats.depth_topic, info.width, info.height);
       if (!decoded.ok()) {
         ++stats.frames;
         return fn(decoded.status());
@@ -290,8 +295,6 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
       if (stats.without_pose++ == 0) stats.first_pose_error = e.what();
       return absl::OkStatus();
     }
-    size_t i = infos.size();
-    while (i > 1 && infos[i - 1].first > depth.stamp) --i;
     ColorMessage c;
     if (color != nullptr) {
       c.image = color->image.get();
@@ -299,11 +302,11 @@ absl::Status BagFrames::Read(const std::function<absl::Status(absl::StatusOr<Ros
       c.topic = stats.color_topic;
     }
     ++stats.frames;
-    const sensor_msgs::CameraInfo& info = *infos[i - 1].second;
     absl::StatusOr<RosFrame> frame =
         MakeRosFrame(*depth_image, stats.depth_topic, c, info, stats.camera_info_topic, T_wc);
     if (frame.ok()) {
-      if (absl::Status r = rectifier.Rectify(info, stats.camera_info_topic, &*frame); !r.ok()) {
+      if (absl::Status r = rectifier.Rectify(info, stats.camera_info_topic, c.topic, &*frame);
+          !r.ok()) {
         frame = r;
       }
     }

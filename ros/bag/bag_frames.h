@@ -11,8 +11,9 @@
 // first take the first; a bag without camera_info is refused. Frames of a camera_info with
 // distortion are undistorted (rectify.h).
 //
-// Topics, when not given: the one depth topic, an Image or an image_transport
-// compressedDepth CompressedImage (compressed_depth.h) whose name says depth (preferring
+// Topics, when not given: the one depth topic, an Image whose name says depth or an
+// image_transport compressedDepth CompressedImage ("<raw>/compressedDepth",
+// compressed_depth.h) (preferring
 // "registered" / "aligned" ones, then a raw image over its "/compressedDepth" twin; a
 // compressedDepth message that does not decode fails its frame only), the one Image or
 // CompressedImage topic whose name does not

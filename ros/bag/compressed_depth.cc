@@ -55,10 +55,16 @@ absl::StatusOr<Format> ParseFormat(const std::string& format, const std::string&
   return out;
 }
 
-absl::Status CheckSize(int64_t width, int64_t height, const std::string& topic) {
+absl::Status CheckSize(int64_t width, int64_t height, const std::string& topic,
+                       uint32_t expected_width, uint32_t expected_height) {
   if (width <= 0 || height <= 0 || width > kMaxImageSide || height > kMaxImageSide) {
     return absl::InvalidArgumentError(absl::StrCat(topic, ": compressedDepth image is ", width, "x",
                                                    height, ", outside 1..", kMaxImageSide));
+  }
+  if (expected_width != 0 && (width != expected_width || height != expected_height)) {
+    return absl::InvalidArgumentError(absl::StrCat(topic, ": compressedDepth image is ", width, "x",
+                                                   height, ", camera_info is for ", expected_width,
+                                                   "x", expected_height));
   }
   return absl::OkStatus();
 }
@@ -81,7 +87,9 @@ bool IsCompressedDepth(const std::string& format) {
 }
 
 absl::StatusOr<sensor_msgs::Image> DecodeCompressedDepth(const sensor_msgs::CompressedImage& msg,
-                                                         const std::string& topic) {
+                                                         const std::string& topic,
+                                                         uint32_t expected_width,
+                                                         uint32_t expected_height) {
   absl::StatusOr<Format> format = ParseFormat(msg.format, topic);
   if (!format.ok()) return format.status();
   if (msg.data.size() <= kHeaderBytes) {
@@ -109,7 +117,11 @@ absl::StatusOr<sensor_msgs::Image> DecodeCompressedDepth(const sensor_msgs::Comp
     absl::StatusOr<perception::ImageHeader> header =
         perception::ReadImageHeader(perception::ImageFormat::kPng, image, what);
     if (!header.ok()) return header.status();
-    if (absl::Status s = CheckSize(header->width, header->height, topic); !s.ok()) return s;
+    if (absl::Status s =
+            CheckSize(header->width, header->height, topic, expected_width, expected_height);
+        !s.ok()) {
+      return s;
+    }
     absl::Status s = perception::DecodeDepthInto(perception::DepthCodec::kPng16,
                                                  std::string_view(image.data(), image.size()),
                                                  int(header->width), int(header->height), &depth);
@@ -121,7 +133,10 @@ absl::StatusOr<sensor_msgs::Image> DecodeCompressedDepth(const sensor_msgs::Comp
     }
     const auto* p = reinterpret_cast<const uint8_t*>(image.data());
     const uint32_t width = ReadU32(p), height = ReadU32(p + 4);
-    if (absl::Status s = CheckSize(width, height, topic); !s.ok()) return s;
+    if (absl::Status s = CheckSize(width, height, topic, expected_width, expected_height);
+        !s.ok()) {
+      return s;
+    }
     depth.width = int(width);
     depth.height = int(height);
     depth.pixels.resize(size_t(width) * height);

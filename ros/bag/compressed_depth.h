@@ -22,6 +22,7 @@
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 
+#include <cstdint>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -37,10 +38,14 @@ bool IsCompressedDepth(const std::string& format);
 // field for a format that is not compressedDepth or names another encoding or codec, data
 // shorter than its header, a header format other than 0, non-finite quantisation
 // parameters, an image that does not decode (not a 16-bit greyscale PNG, a corrupt RVL
-// stream) or whose size is 0 or above kMaxImageSide (ros_frames.h). Sizes are checked
-// before anything is decoded.
+// stream) or whose size is 0 or above kMaxImageSide (ros_frames.h), or, when
+// `expected_width` and `expected_height` are given (not 0: the camera_info's size), another
+// size than those. Sizes are checked before anything is decoded: with the expected size
+// given, a message of a few bytes cannot make it allocate more than that image.
 absl::StatusOr<sensor_msgs::Image> DecodeCompressedDepth(const sensor_msgs::CompressedImage& msg,
-                                                         const std::string& topic);
+                                                         const std::string& topic,
+                                                         uint32_t expected_width = 0,
+                                                         uint32_t expected_height = 0);
 
 }  // namespace skimap::bag
 

@@ -1,5 +1,6 @@
 #include "ros/bag/rectify.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <opencv2/calib3d.hpp>
@@ -55,13 +56,20 @@ absl::StatusOr<std::shared_ptr<const Rectifier::Maps>> Rectifier::MapsFor(
           absl::StrCat(info_topic, ": D[", i, "] is ", info.D[i], " (must be finite)"));
     }
   }
+  for (size_t i = 0; i < info.K.size(); ++i) {
+    if (!std::isfinite(info.K[i])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(info_topic, ": K[", i, "] is ", info.K[i], " (must be finite)"));
+    }
+  }
   const bool fisheye = info.distortion_model == "equidistant";
   if (info.distortion_model == "plumb_bob" || info.distortion_model == "rational_polynomial") {
     const size_t n = info.D.size();
     if (n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
       return absl::InvalidArgumentError(
           absl::StrCat(info_topic, ": D has ", n, " coefficients; ", info.distortion_model,
-                       " takes 5 (k1 k2 t1 t2 k3) or 8 (... k4 k5 k6)"));
+                       " takes 5 (k1 k2 t1 t2 k3) or 8 (... k4 k5 k6); OpenCV's 4, 12 "
+                       "and 14 are read too"));
     }
   } else if (fisheye) {
     if (info.D.size() != 4) {
@@ -80,15 +88,17 @@ absl::StatusOr<std::shared_ptr<const Rectifier::Maps>> Rectifier::MapsFor(
   maps->K = info.K;
   maps->model = info.distortion_model;
   maps->D = info.D;
+  // The lens's own K (a skew included) in, the pinhole camera the frame names out.
   const cv::Matx33d K(info.K.data());
+  const cv::Matx33d pinhole(info.K[0], 0, info.K[2], 0, info.K[4], info.K[5], 0, 0, 1);
   const cv::Mat D(info.D, /*copyData=*/true);
   const cv::Size size(int(info.width), int(info.height));
   try {
     if (fisheye) {
-      cv::fisheye::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, size, CV_16SC2, maps->map1,
-                                           maps->map2);
+      cv::fisheye::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), pinhole, size, CV_16SC2,
+                                           maps->map1, maps->map2);
     } else {
-      cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, size, CV_16SC2, maps->map1,
+      cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), pinhole, size, CV_16SC2, maps->map1,
                                   maps->map2);
     }
   } catch (const cv::Exception& e) {
@@ -102,13 +112,21 @@ absl::StatusOr<std::shared_ptr<const Rectifier::Maps>> Rectifier::MapsFor(
 }
 
 absl::Status Rectifier::Rectify(const sensor_msgs::CameraInfo& info, const std::string& info_topic,
-                                RosFrame* frame) {
+                                const std::string& color_topic, RosFrame* frame) {
   if (!HasDistortion(info)) return absl::OkStatus();
+  const int w = frame->width, h = frame->height;
+  const size_t pixels = size_t(std::max(w, 0)) * size_t(std::max(h, 0));
+  if (w <= 0 || h <= 0 || uint32_t(w) != info.width || uint32_t(h) != info.height ||
+      frame->depth_mm.size() != pixels ||
+      (frame->frame.color_encoding() == v1::COLOR_ENCODING_RAW_RGB8 &&
+       frame->frame.color().size() != pixels * 3)) {
+    return absl::InvalidArgumentError(absl::StrCat(info_topic, ": camera_info is for ", info.width,
+                                                   "x", info.height, " images, the frame is ", w,
+                                                   "x", h));
+  }
   absl::StatusOr<std::shared_ptr<const Maps>> maps = MapsFor(info, info_topic);
   if (!maps.ok()) return maps.status();
   const Maps& m = **maps;
-  const int w = frame->width, h = frame->height;
-  // The frame was made with this camera_info (MakeRosFrame checks the sizes agree).
   const cv::Mat depth(h, w, CV_16UC1, frame->depth_mm.data());
   cv::Mat rectified;
   cv::remap(depth, rectified, m.map1, m.map2, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
@@ -126,7 +144,10 @@ absl::Status Rectifier::Rectify(const sensor_msgs::CameraInfo& info, const std::
                                                                      : perception::ColorCodec::kPng;
     absl::StatusOr<perception::ColorImage> decoded =
         perception::DecodeColor(codec, f.color(), w, h);
-    if (!decoded.ok()) return decoded.status();
+    if (!decoded.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          color_topic, ": undistorting the colour image: ", decoded.status().message()));
+    }
     color = *std::move(decoded);
   }
   const cv::Mat rgb(h, w, CV_8UC3, color.rgb.data());

@@ -2,8 +2,9 @@
 // before they are sent, so the server's pinhole back-projection (K only) puts every pixel
 // on its true ray. What image_proc's rectify does for a monocular camera, for both images:
 //
-//   - the rectified images keep the camera matrix K (the frame's intrinsics stay K's) and
-//     R is taken as identity (a depth camera is not a stereo pair);
+//   - the rectified images are those of the pinhole camera (fx, fy, cx, cy) of K, the
+//     intrinsics the frame carries (a skew in K is undone too), and R is taken as identity
+//     (a depth camera is not a stereo pair);
 //   - depth is resampled to the nearest source pixel (interpolating depth across an edge
 //     would invent points between surfaces); its values are the z of the same points, so
 //     they are copied as they are;
@@ -50,11 +51,11 @@ class Rectifier {
   // Undistorts `frame` (made from messages with `info`: its depth_mm and colour, as
   // MakeRosFrame leaves them) in place; OK and nothing done when `info` has no distortion.
   // InvalidArgument naming `info_topic` and the field for a distortion model other than the
-  // three above, a D of the wrong length for its model, or a non-finite coefficient;
-  // InvalidArgument from the colour decoder for a compressed colour image that does not
-  // decode.
+  // three above, a D of the wrong length for its model, a non-finite coefficient or K, or
+  // a frame of another size than `info` says; naming `color_topic` for a compressed colour
+  // image that does not decode.
   absl::Status Rectify(const sensor_msgs::CameraInfo& info, const std::string& info_topic,
-                       RosFrame* frame);
+                       const std::string& color_topic, RosFrame* frame);
 
  private:
   struct Maps;

@@ -73,6 +73,7 @@ class Bridge::Impl {
           OnFrame(depth, color, info);
         },
         [this](const absl::Status& s) { Refused(s); });
+    camera_->Start();
     pose_updates_ = nh_.subscribe("pose_updates", 10, &Impl::OnPoseUpdates, this);
 
     map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, /*latch=*/true);
@@ -132,7 +133,7 @@ class Bridge::Impl {
     absl::StatusOr<bag::RosFrame> frame =
         bag::MakeRosFrame(depth, camera_->depth_topic(), color, info, camera_->info_topic(), T_wc);
     absl::Status s = frame.status();
-    if (s.ok()) s = rectifier_.Rectify(info, camera_->info_topic(), &*frame);
+    if (s.ok()) s = rectifier_.Rectify(info, camera_->info_topic(), color.topic, &*frame);
     if (s.ok()) {
       s = client::SetFrameDepth(frame->depth_mm.data(), frame->width, frame->height, &frame->frame,
                                 encoding_);

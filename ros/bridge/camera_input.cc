@@ -20,37 +20,45 @@ using sensor_msgs::Image;
 class CameraInput::Impl {
  public:
   Impl(ros::NodeHandle nh, const BridgeParams& params, FrameFn on_frame, BadFn on_bad)
-      : on_frame_(std::move(on_frame)), on_bad_(std::move(on_bad)) {
-    const int queue = params.sync_queue;
-    // Depth reaches the synchronisers through depth_in_: raw images as they come, or
-    // compressedDepth decoded first.
-    if (params.compressed_depth) {
-      compressed_depth_sub_ =
-          nh.subscribe("depth/image/compressedDepth", queue, &Impl::OnCompressedDepth, this);
-      depth_topic_ = compressed_depth_sub_.getTopic();
-    } else {
-      depth_sub_.subscribe(nh, "depth/image", queue);
-      depth_in_.connectInput(depth_sub_);
-      depth_topic_ = depth_sub_.getTopic();
+      : nh_(nh), params_(params), on_frame_(std::move(on_frame)), on_bad_(std::move(on_bad)) {
+    depth_topic_ =
+        nh_.resolveName(params_.compressed_depth ? "depth/image/compressedDepth" : "depth/image");
+    info_topic_ = nh_.resolveName(params_.use_color ? "rgb/camera_info" : "depth/camera_info");
+    if (params_.use_color) {
+      color_topic_ =
+          nh_.resolveName(params_.compressed_color ? "rgb/image/compressed" : "rgb/image");
     }
-    info_sub_.subscribe(nh, params.use_color ? "rgb/camera_info" : "depth/camera_info", queue);
-    info_topic_ = info_sub_.getTopic();
+  }
+
+  void Start() {
+    const int queue = params_.sync_queue;
+    // Depth reaches the synchronisers through depth_in_: raw images as they come, or
+    // compressedDepth decoded first. The synchronisers are connected before any input is
+    // subscribed, so no message arrives half-wired.
     using boost::placeholders::_1, boost::placeholders::_2, boost::placeholders::_3;
-    if (!params.use_color) {
+    if (!params_.use_color) {
       depth_only_sync_ =
           std::make_unique<DepthOnlySync>(DepthOnlyPolicy(queue), depth_in_, info_sub_);
       depth_only_sync_->registerCallback(boost::bind(&Impl::OnDepthOnly, this, _1, _2));
-    } else if (params.compressed_color) {
-      compressed_sub_.subscribe(nh, "rgb/image/compressed", queue);
-      color_topic_ = compressed_sub_.getTopic();
+    } else if (params_.compressed_color) {
       compressed_sync_ = std::make_unique<CompressedSync>(CompressedPolicy(queue), depth_in_,
                                                           compressed_sub_, info_sub_);
       compressed_sync_->registerCallback(boost::bind(&Impl::OnCompressed, this, _1, _2, _3));
     } else {
-      color_sub_.subscribe(nh, "rgb/image", queue);
-      color_topic_ = color_sub_.getTopic();
       sync_ = std::make_unique<RawSync>(RawPolicy(queue), depth_in_, color_sub_, info_sub_);
       sync_->registerCallback(boost::bind(&Impl::OnRaw, this, _1, _2, _3));
+    }
+    if (params_.compressed_depth) {
+      compressed_depth_sub_ = nh_.subscribe(depth_topic_, queue, &Impl::OnCompressedDepth, this);
+    } else {
+      depth_in_.connectInput(depth_sub_);
+      depth_sub_.subscribe(nh_, depth_topic_, queue);
+    }
+    info_sub_.subscribe(nh_, info_topic_, queue);
+    if (params_.use_color && params_.compressed_color) {
+      compressed_sub_.subscribe(nh_, color_topic_, queue);
+    } else if (params_.use_color) {
+      color_sub_.subscribe(nh_, color_topic_, queue);
     }
   }
 
@@ -94,6 +102,8 @@ class CameraInput::Impl {
     on_frame_(*depth, color, *info);
   }
 
+  ros::NodeHandle nh_;
+  const BridgeParams params_;
   const FrameFn on_frame_;
   const BadFn on_bad_;
   // Declared in the order that destroys the synchronisers first, then what feeds them, so
@@ -113,6 +123,8 @@ CameraInput::CameraInput(ros::NodeHandle nh, const BridgeParams& params, FrameFn
     : impl_(std::make_unique<Impl>(nh, params, std::move(on_frame), std::move(on_bad))) {}
 
 CameraInput::~CameraInput() = default;
+
+void CameraInput::Start() { impl_->Start(); }
 
 const std::string& CameraInput::depth_topic() const { return impl_->depth_topic_; }
 const std::string& CameraInput::info_topic() const { return impl_->info_topic_; }

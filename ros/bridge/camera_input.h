@@ -31,11 +31,15 @@ class CameraInput {
                          const sensor_msgs::CameraInfo& info)>;
   using BadFn = std::function<void(const absl::Status&)>;
 
-  // Subscribes at once (topics relative to `nh`).
+  // Resolves the topic names (relative to `nh`, remapped); subscribes nothing yet.
   CameraInput(ros::NodeHandle nh, const BridgeParams& params, FrameFn on_frame, BadFn on_bad);
   ~CameraInput();
 
-  // The resolved topic names, for errors.
+  // Subscribes: the callbacks may run from then on (on the spinner's threads), so call it
+  // once what they use is in place. Once.
+  void Start();
+
+  // The resolved topic names, for errors; set before Start.
   const std::string& depth_topic() const;
   const std::string& info_topic() const;
 

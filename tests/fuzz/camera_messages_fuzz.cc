@@ -6,9 +6,11 @@
 //   - even: a format selector byte and the message's data (the 12-byte header, then a PNG
 //     or an RVL stream with its size): DecodeCompressedDepth. Invariant: a decoded image
 //     is 16UC1, 1..8192 pixels a side, its data exactly width x height x 2 bytes.
-//   - odd: a distortion model selector, a coefficient count (0..15) and that many doubles:
-//     Rectify on a 32x24 frame with raw colour. Invariant: the frame keeps its size and
-//     raw colour.
+//   - odd: a size byte, a distortion model selector, a coefficient count (0..15) and that
+//     many doubles, optionally a K of any bits: Rectify (one Rectifier for the run, so its
+//     cache of maps is reached) on a frame of up to 39x34 with raw colour, now and then of
+//     another size than the camera_info. Invariant: a frame rectified (D not all zero) had
+//     the camera_info's size; every frame keeps its size and raw colour.
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -44,30 +46,41 @@ void Decode(FuzzInput& in) {
   }
 }
 
+double Double(FuzzInput& in) {
+  const uint64_t bits = uint64_t{in.U32()} | uint64_t{in.U32()} << 32;
+  double d;
+  std::memcpy(&d, &bits, 8);
+  return d;
+}
+
 void Rectify(FuzzInput& in) {
-  constexpr int kWidth = 32, kHeight = 24;
+  // One Rectifier for the whole run: its cache of maps is exercised across inputs.
+  static bag::Rectifier rectifier;
+  const uint8_t control = in.U8();
+  const int width = 8 + control % 32, height = 6 + (control >> 5) * 4;
   sensor_msgs::CameraInfo info;
-  info.width = kWidth;
-  info.height = kHeight;
+  info.width = width;
+  info.height = height;
   info.distortion_model = kModels[in.U8() % (sizeof kModels / sizeof *kModels)];
   const int count = in.U8() % 16;
-  for (int i = 0; i < count; ++i) {
-    uint64_t bits = uint64_t{in.U32()} | uint64_t{in.U32()} << 32;
-    double d;
-    std::memcpy(&d, &bits, 8);
-    info.D.push_back(d);
+  for (int i = 0; i < count; ++i) info.D.push_back(Double(in));
+  info.K = {40, 0, width / 2.0, 0, 40, height / 2.0, 0, 0, 1};
+  if (in.U8() % 2 == 1) {  // a K of any bits: focal lengths, centre, skew
+    for (int i : {0, 1, 2, 4, 5}) info.K[i] = Double(in);
   }
-  info.K = {40, 0, 16, 0, 40, 12, 0, 0, 1};
   bag::RosFrame frame;
-  frame.width = kWidth;
-  frame.height = kHeight;
-  frame.depth_mm.assign(kWidth * kHeight, 1000);
-  frame.frame.set_color(std::string(kWidth * kHeight * 3, '\x7f'));
+  // Now and then a frame of another size than its camera_info: refused, never read past.
+  frame.width = in.U8() % 8 == 0 ? width + 1 : width;
+  frame.height = height;
+  frame.depth_mm.assign(size_t(frame.width) * frame.height, 1000);
+  frame.frame.set_color(std::string(size_t(frame.width) * frame.height * 3, '\x7f'));
   frame.frame.set_color_encoding(v1::COLOR_ENCODING_RAW_RGB8);
-  bag::Rectifier rectifier;
-  if (!rectifier.Rectify(info, "/i", &frame).ok()) return;
-  if (frame.depth_mm.size() != size_t(kWidth) * kHeight) Fail("depth size");
-  if (frame.frame.color().size() != size_t(kWidth) * kHeight * 3 ||
+  if (!rectifier.Rectify(info, "/i", "/c", &frame).ok()) return;
+  // Without distortion nothing is done (and nothing checked): any size stays as it was.
+  if (bag::HasDistortion(info) && frame.width != width) Fail("a frame of another size");
+  const size_t pixels = size_t(frame.width) * frame.height;
+  if (frame.depth_mm.size() != pixels) Fail("depth size");
+  if (frame.frame.color().size() != pixels * 3 ||
       frame.frame.color_encoding() != v1::COLOR_ENCODING_RAW_RGB8) {
     Fail("colour");
   }

@@ -114,26 +114,49 @@ TEST_F(BagStreamTest, CompressedDepthBagsStreamTheVoxelsOfTheirFrames) {
   // image_transport's compressedDepth (PNG and RVL) on the depth topic's /compressedDepth,
   // as `rosbag record` of a RealSense or OpenNI driver over that transport stores it.
   const VoxelSet reference = Reference("cd_ref");
-  for (const char* codec : {"png", "rvl"}) {
-    SCOPED_TRACE(codec);
-    const std::string path = (dir_ / absl::StrCat("cd_", codec, ".bag")).string();
+  const std::string depth = "/camera/aligned_depth_to_color/image_raw";
+  struct Variant {
+    std::string name, codec;
+    bool raw_twin;  // the raw depth topic recorded too
+    std::string expect;
+  };
+  for (const Variant& v : std::vector<Variant>{
+           // camera_info beside the depth topic's folder, found through /compressedDepth
+           {"png", "png", false,
+            "bag: depth " + depth +
+                "/compressedDepth, colour /camera/color/image_raw, "
+                "camera_info /camera/aligned_depth_to_color/camera_info"},
+           // a depth-named JPEG topic (image_transport's `compressed` of a depth image, which
+           // holds no depth) is no candidate
+           {"rvl", "rvl", false, "bag: depth " + depth + "/compressedDepth, "},
+           // a raw topic and its twin: the raw one
+           {"twin", "rvl", true, "bag: depth " + depth + ", "}}) {
+    SCOPED_TRACE(v.name);
+    const std::string path = (dir_ / ("cd_" + v.name + ".bag")).string();
     {
       rosbag::Bag bag(path, rosbag::bagmode::Write);
       bag.write("/tf_static", ros::Time(1000.0), LinkToOptical());
       for (const MmFrame& f : frames_) {
         bag.write("/tf", f.stamp, WorldToLink(f));
-        bag.write("/camera/color/camera_info", f.stamp, InfoMessage(f));
-        bag.write("/camera/aligned_depth_to_color/image_raw/compressedDepth", f.stamp,
-                  CompressedDepthMessage(f, codec));
+        bag.write(v.name == "png" ? "/camera/aligned_depth_to_color/camera_info"
+                                  : "/camera/color/camera_info",
+                  f.stamp, InfoMessage(f));
+        bag.write(depth + "/compressedDepth", f.stamp, CompressedDepthMessage(f, v.codec));
+        if (v.raw_twin) bag.write(depth, f.stamp, DepthMessage(f));
+        if (v.name == "rvl") {
+          sensor_msgs::CompressedImage jpeg;
+          jpeg.header = DepthMessage(f).header;
+          jpeg.format = "16UC1; jpeg compressed mono8";
+          cv::imencode(".jpg", cv::Mat(8, 8, CV_8UC1, cv::Scalar(7)), jpeg.data);
+          bag.write("/camera/depth_registered/image_raw/compressed", f.stamp, jpeg);
+        }
         bag.write("/camera/color/image_raw", f.stamp, ColorMessage(f));
       }
     }
-    const std::string map = absl::StrCat("cd_", codec);
+    const std::string map = "cd_" + v.name;
     const CommandRun run = Stream(path, map);
     ASSERT_EQ(run.status, 0) << run.output;
-    EXPECT_NE(run.output.find("/camera/aligned_depth_to_color/image_raw/compressedDepth"),
-              std::string::npos)
-        << run.output;
+    EXPECT_NE(run.output.find(v.expect), std::string::npos) << run.output;
     EXPECT_EQ(Compare(Voxels(*client_, "maps/" + map), reference), "same");
   }
 }

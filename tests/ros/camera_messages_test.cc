@@ -154,6 +154,19 @@ TEST(CompressedDepthTest, HostileMessagesAreRefusedByTopicAndField) {
   }
 }
 
+TEST(CompressedDepthTest, AnImageOfAnotherSizeThanCameraInfoIsRefusedBeforeDecoding) {
+  const MmFrame& f = Frames()[0];
+  for (const char* codec : {"png", "rvl"}) {
+    absl::StatusOr<sensor_msgs::Image> depth = bag::DecodeCompressedDepth(
+        CompressedDepthMessage(f, codec), "/d", f.width / 2, f.height / 2);
+    ASSERT_FALSE(depth.ok()) << codec;
+    EXPECT_NE(depth.status().message().find("camera_info is for 320x240"), std::string::npos)
+        << depth.status();
+    EXPECT_TRUE(
+        bag::DecodeCompressedDepth(CompressedDepthMessage(f, codec), "/d", f.width, f.height).ok());
+  }
+}
+
 // The frame ros_frames.h makes of `f`'s messages, with `info`.
 bag::RosFrame MakeFrame(const MmFrame& f, const sensor_msgs::CameraInfo& info, bool jpeg = false) {
   const sensor_msgs::Image depth = DepthMessage(f), color = ColorMessage(f);
@@ -191,27 +204,48 @@ double Agreement(const std::vector<uint16_t>& depth, const MmFrame& truth, int t
   return measured == 0 ? 0 : double(same) / measured;
 }
 
-TEST(RectifierTest, EveryPixelLandsOnItsOwnRay) {
-  // Depth that says where each pinhole pixel is (1000 + 2 x mm): after the round trip
-  // through the lens and back, a pixel must hold its own column's depth, to the pixel.
+// Of the pixels of a frame whose depth says where each pinhole pixel is (1000 + 2 x mm,
+// or 1000 + 2 y mm with `rows`), the fraction that, after the round trip through the lens
+// (model, D) and back, hold their own column's (row's) depth, to the pixel; and the same
+// for the distorted image taken as pinhole.
+std::pair<double, double> OwnRayFractions(const std::string& model, const std::vector<double>& D,
+                                          bool rows) {
   MmFrame truth = Frames()[0];
   for (int y = 0; y < truth.height; ++y) {
-    for (int x = 0; x < truth.width; ++x)
-      truth.depth_mm[size_t(y) * truth.width + x] = 1000 + 2 * x;
+    for (int x = 0; x < truth.width; ++x) {
+      truth.depth_mm[size_t(y) * truth.width + x] = uint16_t(1000 + 2 * (rows ? y : x));
+    }
   }
-  const MmFrame distorted = Distorted(truth);
+  const MmFrame distorted = Distorted(truth, D, model == "equidistant");
   sensor_msgs::CameraInfo info = InfoMessage(distorted);
-  info.D = LensDistortion();
+  info.distortion_model = model;
+  info.D = D;
   bag::Rectifier rectifier;
   bag::RosFrame frame = MakeFrame(distorted, info);
-  ASSERT_TRUE(rectifier.Rectify(info, "/i", &frame).ok());
+  EXPECT_TRUE(rectifier.Rectify(info, "/i", "/c", &frame).ok());
   EXPECT_EQ(frame.frame.intrinsics().fx(), truth.fx);  // the camera matrix stays K
-  const double rectified = Agreement(frame.depth_mm, truth, 2);
-  const double as_sent = Agreement(distorted.depth_mm, truth, 2);
-  std::printf("within a pixel: rectified %.3f, distorted taken as pinhole %.3f\n", rectified,
-              as_sent);
-  EXPECT_GT(rectified, 0.99);  // 1.000 (2026-11-29)
-  EXPECT_LT(as_sent, 0.8);     // 0.563: most pixels moved by more than one
+  return {Agreement(frame.depth_mm, truth, 2), Agreement(distorted.depth_mm, truth, 2)};
+}
+
+TEST(RectifierTest, EveryPixelLandsOnItsOwnRay) {
+  for (bool rows : {false, true}) {
+    const auto [rectified, as_sent] = OwnRayFractions("plumb_bob", LensDistortion(), rows);
+    std::printf("%s within a pixel: rectified %.3f, distorted taken as pinhole %.3f\n",
+                rows ? "rows" : "columns", rectified, as_sent);
+    EXPECT_GT(rectified, 0.99);  // 1.000 (2026-11-29)
+    EXPECT_LT(as_sent, 0.8);     // 0.563 columns: most pixels moved by more than one
+  }
+}
+
+TEST(RectifierTest, TheFisheyeModelIsUndoneToo) {
+  const std::vector<double> D = {0.05, -0.02, 0.004, 0};
+  for (bool rows : {false, true}) {
+    const auto [rectified, as_sent] = OwnRayFractions("equidistant", D, rows);
+    std::printf("equidistant, %s within a pixel: rectified %.3f, taken as pinhole %.3f\n",
+                rows ? "rows" : "columns", rectified, as_sent);
+    EXPECT_GT(rectified, 0.99);
+    EXPECT_LT(as_sent, 0.8);
+  }
 }
 
 TEST(RectifierTest, DistortionIsUndoneOnDepthAndColour) {
@@ -221,7 +255,7 @@ TEST(RectifierTest, DistortionIsUndoneOnDepthAndColour) {
   info.D = LensDistortion();
   bag::Rectifier rectifier;
   bag::RosFrame frame = MakeFrame(distorted, info);
-  ASSERT_TRUE(rectifier.Rectify(info, "/i", &frame).ok());
+  ASSERT_TRUE(rectifier.Rectify(info, "/i", "/c", &frame).ok());
   const double rectified = Agreement(frame.depth_mm, truth, 10);
   std::printf("real depth within 1 cm: rectified %.3f, distorted taken as pinhole %.3f\n",
               rectified, Agreement(distorted.depth_mm, truth, 10));
@@ -257,7 +291,7 @@ TEST(RectifierTest, CompressedColourIsDecodedAndSentRaw) {
   bag::Rectifier rectifier;
   bag::RosFrame frame = MakeFrame(distorted, info, /*jpeg=*/true);
   ASSERT_EQ(frame.frame.color_encoding(), v1::COLOR_ENCODING_JPEG);
-  ASSERT_TRUE(rectifier.Rectify(info, "/i", &frame).ok());
+  ASSERT_TRUE(rectifier.Rectify(info, "/i", "/c", &frame).ok());
   EXPECT_EQ(frame.frame.color_encoding(), v1::COLOR_ENCODING_RAW_RGB8);
   EXPECT_EQ(frame.frame.color().size(), size_t(distorted.width) * distorted.height * 3);
 }
@@ -268,26 +302,14 @@ TEST(RectifierTest, RectifiedImagesAreLeftAsTheyAre) {
   bag::Rectifier rectifier;
   bag::RosFrame frame = MakeFrame(f, info);
   const bag::RosFrame before = frame;
-  ASSERT_TRUE(rectifier.Rectify(info, "/i", &frame).ok());
+  ASSERT_TRUE(rectifier.Rectify(info, "/i", "/c", &frame).ok());
   EXPECT_EQ(frame.depth_mm, before.depth_mm);
   EXPECT_EQ(frame.frame.color(), before.frame.color());
   // A driver that leaves the model empty with no coefficients: rectified too.
   info.distortion_model = "";
   info.D.clear();
-  ASSERT_TRUE(rectifier.Rectify(info, "/i", &frame).ok());
+  ASSERT_TRUE(rectifier.Rectify(info, "/i", "/c", &frame).ok());
   EXPECT_EQ(frame.depth_mm, before.depth_mm);
-}
-
-TEST(RectifierTest, TheFisheyeModelIsUndoneToo) {
-  const MmFrame& f = Frames()[0];
-  sensor_msgs::CameraInfo info = InfoMessage(f);
-  info.distortion_model = "equidistant";
-  info.D = {0.05, -0.01, 0.002, 0};
-  bag::Rectifier rectifier;
-  bag::RosFrame frame = MakeFrame(f, info);
-  const bag::RosFrame before = frame;
-  ASSERT_TRUE(rectifier.Rectify(info, "/i", &frame).ok());
-  EXPECT_NE(frame.depth_mm, before.depth_mm);
 }
 
 TEST(RectifierTest, AnUnusableDistortionIsRefusedByField) {
@@ -304,12 +326,21 @@ TEST(RectifierTest, AnUnusableDistortionIsRefusedByField) {
       {"equidistant", {0.1, 0.2, 0, 0, 0}, "D has 5 coefficients"},
       {"plumb_bob", {0.1, std::nan(""), 0, 0, 0}, "D[1]"},
   };
+  {
+    // A frame of another size than its camera_info (a caller's mistake): refused, not read.
+    sensor_msgs::CameraInfo info = InfoMessage(f);
+    info.D = LensDistortion();
+    bag::RosFrame frame = MakeFrame(f, info);
+    info.width /= 2;
+    const absl::Status s = rectifier.Rectify(info, "/i", "/c", &frame);
+    EXPECT_TRUE(absl::IsInvalidArgument(s)) << s;
+  }
   for (const Case& c : cases) {
     sensor_msgs::CameraInfo info = InfoMessage(f);
     info.distortion_model = c.model;
     info.D = c.D;
     bag::RosFrame frame = MakeFrame(f, info);
-    const absl::Status s = rectifier.Rectify(info, "/i", &frame);
+    const absl::Status s = rectifier.Rectify(info, "/i", "/c", &frame);
     EXPECT_TRUE(absl::IsInvalidArgument(s)) << c.expect << ": " << s;
     EXPECT_NE(s.message().find(c.expect), std::string::npos) << s;
     EXPECT_EQ(s.message().rfind("/i: ", 0), 0u) << s;

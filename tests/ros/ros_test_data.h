@@ -180,15 +180,21 @@ inline sensor_msgs::CompressedImage CompressedDepthMessage(const MmFrame& f,
 // 640x480 frames.
 inline std::vector<double> LensDistortion() { return {-0.28, 0.07, 0.002, -0.001, 0}; }
 
-// `f` as a camera with LensDistortion() would have seen it: each distorted pixel takes the
-// depth and colour of the pixel its ray meets in `f` (nearest; outside `f`: none, black).
-inline MmFrame Distorted(const MmFrame& f) {
+// `f` as a camera with distortion D (OpenCV's pinhole model, or with `fisheye` its
+// equidistant one) would have seen it: each distorted pixel takes the depth and colour of
+// the pixel its ray meets in `f` (nearest; outside `f`: none, black).
+inline MmFrame Distorted(const MmFrame& f, const std::vector<double>& D = LensDistortion(),
+                         bool fisheye = false) {
   const cv::Matx33d K(f.fx, 0, f.cx, 0, f.fy, f.cy, 0, 0, 1);
   std::vector<cv::Point2f> pixels, rays;
   for (int y = 0; y < f.height; ++y) {
     for (int x = 0; x < f.width; ++x) pixels.emplace_back(float(x), float(y));
   }
-  cv::undistortPoints(pixels, rays, K, LensDistortion(), cv::noArray(), K);
+  if (fisheye) {
+    cv::fisheye::undistortPoints(pixels, rays, K, D, cv::noArray(), K);
+  } else {
+    cv::undistortPoints(pixels, rays, K, D, cv::noArray(), K);
+  }
   cv::Mat map_x(f.height, f.width, CV_32FC1), map_y(f.height, f.width, CV_32FC1);
   for (int i = 0; i < f.width * f.height; ++i) {
     map_x.at<float>(i / f.width, i % f.width) = rays[i].x;
