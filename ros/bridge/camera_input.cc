@@ -6,6 +6,7 @@
 #include <message_filters/synchronizer.h>
 #include <sensor_msgs/CompressedImage.h>
 
+#include <atomic>
 #include <boost/bind/bind.hpp>
 #include <boost/make_shared.hpp>
 
@@ -49,6 +50,8 @@ class CameraInput::Impl {
       sync_->registerCallback(boost::bind(&Impl::OnRaw, this, _1, _2, _3));
     }
     if (params_.compressed_depth) {
+      // The camera's size as its camera_info last said: compressedDepth is decoded at it.
+      info_sub_.registerCallback(boost::bind(&Impl::OnInfo, this, _1));
       compressed_depth_sub_ = nh_.subscribe(depth_topic_, queue, &Impl::OnCompressedDepth, this);
     } else {
       depth_in_.connectInput(depth_sub_);
@@ -73,8 +76,16 @@ class CameraInput::Impl {
   using DepthOnlyPolicy = message_filters::sync_policies::ApproximateTime<Image, CameraInfo>;
   using DepthOnlySync = message_filters::Synchronizer<DepthOnlyPolicy>;
 
+  void OnInfo(const CameraInfo::ConstPtr& info) {
+    info_size_.store(uint64_t{info->width} << 32 | info->height, std::memory_order_relaxed);
+  }
+
   void OnCompressedDepth(const CompressedImage::ConstPtr& message) {
-    absl::StatusOr<Image> depth = bag::DecodeCompressedDepth(*message, depth_topic_);
+    // Before the first camera_info, any size up to the limit; then the camera_info's, so
+    // that a message of a few bytes cannot claim a larger image.
+    const uint64_t size = info_size_.load(std::memory_order_relaxed);
+    absl::StatusOr<Image> depth = bag::DecodeCompressedDepth(
+        *message, depth_topic_, uint32_t(size >> 32), uint32_t(size & 0xffffffffu));
     if (!depth.ok()) {
       on_bad_(depth.status());
       return;
@@ -106,6 +117,7 @@ class CameraInput::Impl {
   const BridgeParams params_;
   const FrameFn on_frame_;
   const BadFn on_bad_;
+  std::atomic<uint64_t> info_size_{0};  // width << 32 | height of the last camera_info
   // Declared in the order that destroys the synchronisers first, then what feeds them, so
   // that nothing calls into a member already gone.
   message_filters::PassThrough<Image> depth_in_;

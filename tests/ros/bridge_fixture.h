@@ -181,7 +181,9 @@ class BridgeTest : public ::testing::Test {
       if (compressed_depth_.empty()) {
         depth.publish(DepthMessage(f));
       } else {
-        depth.publish(CompressedDepthMessage(f, compressed_depth_));
+        sensor_msgs::CompressedImage message = CompressedDepthMessage(f, compressed_depth_);
+        if (edit_compressed_depth_) edit_compressed_depth_(f.index, &message);
+        depth.publish(message);
       }
       if (!publish_color_) {
       } else if (compressed) {
@@ -218,6 +220,8 @@ class BridgeTest : public ::testing::Test {
   std::string server_override_;   // the bridge's ~server when not server_
   bool publish_color_ = true;     // false: depth and camera_info only
   std::string compressed_depth_;  // "png" / "rvl": depth as compressedDepth with that codec
+  // Changes frame i's compressedDepth message before it is published.
+  std::function<void(int, sensor_msgs::CompressedImage*)> edit_compressed_depth_;
 };
 
 }  // namespace skimap::testing

@@ -184,6 +184,34 @@ TEST_F(BridgeTest, CompressedDepthMakesTheSameMap) {
   EXPECT_EQ(Compare(Voxels(*client_, "maps/cd"), Reference("cd_ref")), "same");
 }
 
+TEST_F(BridgeTest, ACompressedDepthMessageOfAnotherSizeThanCameraInfoIsRefusedAndCounted) {
+  ros::NodeHandle nh;
+  StartBridge("cd_bad", {"_compressed_depth:=true"});
+  compressed_depth_ = "rvl";
+  // Frame 5 claims a quarter-size image (valid RVL of it): the camera_info says 640x480.
+  edit_compressed_depth_ = [&](int i, sensor_msgs::CompressedImage* m) {
+    if (i != 5) return;
+    MmFrame small = frames_[i];
+    small.width /= 2;
+    small.height /= 2;
+    small.depth_mm.assign(size_t(small.width) * small.height, 1000);
+    *m = CompressedDepthMessage(small, "rvl");
+  };
+  PublishFrames(nh);
+  ASSERT_TRUE(WaitFor([&] { return Frames("cd_bad") == 9; }, 60)) << BridgeLog();
+  ros::WallDuration(0.5).sleep();
+  EXPECT_EQ(StopBridge(), 0);
+  EXPECT_EQ(Frames("cd_bad"), 9u);
+  // Refused by the decoder, before it decoded anything, not later by the frame checks.
+  EXPECT_NE(BridgeLog().find("compressedDepth image is 320x240, camera_info is for 640x480"),
+            std::string::npos)
+      << BridgeLog();
+  std::ifstream stats(dir_ / "stats.json");
+  std::stringstream text;
+  text << stats.rdbuf();
+  EXPECT_NE(text.str().find("\"bad\": 1"), std::string::npos) << text.str();
+}
+
 TEST_F(BridgeTest, ADepthOnlyCameraMakesTheMapInGrey) {
   ros::NodeHandle nh;
   StartBridge("depth_only", {"_use_color:=false"});
