@@ -38,7 +38,7 @@ trap 'for p in "${background_pids[@]}"; do kill -- -"$p" 2>/dev/null || true; do
 in_background() { # LOG COMMAND...: starts COMMAND at the lowest priority; its pid in $!
   local log=$1
   shift
-  setsid bash -c 'echo 19 >/proc/self/autogroup 2>/dev/null || true; exec nice -n 19 "$@"' \
+  setsid -w bash -c 'echo 19 >/proc/self/autogroup 2>/dev/null || true; exec nice -n 19 "$@"' \
     _ "$@" >"$log" 2>&1 &
   background_pids+=("$!")
 }
