@@ -34,7 +34,8 @@ jobs=$(nproc)
 # (docs/testing.md).
 mkdir -p build
 background_pids=()
-trap 'for p in "${background_pids[@]}"; do kill -- -"$p" 2>/dev/null || true; done' EXIT
+# The group, or the process itself if it has not made its session yet.
+trap 'for p in "${background_pids[@]}"; do kill -- -"$p" 2>/dev/null || kill "$p" 2>/dev/null || true; done' EXIT
 in_background() { # LOG COMMAND...: starts COMMAND at the lowest priority; its pid in $!
   local log=$1
   shift
