@@ -13,11 +13,10 @@
 //
 // Topics, when not given: the one depth topic, an Image whose name says depth or an
 // image_transport compressedDepth CompressedImage ("<raw>/compressedDepth",
-// compressed_depth.h) (preferring
-// "registered" / "aligned" ones, then a raw image over its "/compressedDepth" twin; a
-// compressedDepth message that does not decode fails its frame only), the one Image or
-// CompressedImage topic whose name does not
-// (preferring a raw image over its /compressed twin, and names saying color or rgb), the
+// compressed_depth.h; one that does not decode fails its frame only), preferring
+// "registered" / "aligned" ones, then a raw image over its "/compressedDepth" twin; the one
+// Image or CompressedImage topic whose name does not say depth (preferring a raw image
+// over its /compressed twin, and names saying color or rgb); the
 // CameraInfo beside the depth topic, else beside the colour topic, else the only one. More
 // than one candidate left: InvalidArgument listing them and the flag to choose with.
 //

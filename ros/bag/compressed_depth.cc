@@ -82,10 +82,6 @@ float ReadF32(const uint8_t* p) {
 
 }  // namespace
 
-bool IsCompressedDepth(const std::string& format) {
-  return format.find("compressedDepth") != std::string::npos;
-}
-
 absl::StatusOr<sensor_msgs::Image> DecodeCompressedDepth(const sensor_msgs::CompressedImage& msg,
                                                          const std::string& topic,
                                                          uint32_t expected_width,
@@ -154,16 +150,8 @@ absl::StatusOr<sensor_msgs::Image> DecodeCompressedDepth(const sensor_msgs::Comp
   out.step = out.width * 2;
   out.data.resize(depth.pixels.size() * 2);
   if (format->metres) {
-    // Quantised inverse depth to millimetres, as the 32FC1 conversion of ros_frames.h does.
-    for (size_t i = 0; i < depth.pixels.size(); ++i) {
-      const uint16_t q = depth.pixels[i];
-      uint16_t mm = 0;
-      if (q != 0) {
-        const double m = double(a / (float(q) - b)) * 1000.0;
-        if (std::isfinite(m) && m > 0 && m < 65535.5) mm = uint16_t(std::lround(m));
-      }
-      depth.pixels[i] = mm;
-    }
+    // Quantised inverse depth to millimetres, as ros_frames.h converts 32FC1.
+    for (uint16_t& q : depth.pixels) q = q == 0 ? 0 : MillimetresOf(a / (float(q) - b));
   }
   for (size_t i = 0; i < depth.pixels.size(); ++i) {
     out.data[2 * i] = uint8_t(depth.pixels[i]);

@@ -29,9 +29,6 @@
 
 namespace skimap::bag {
 
-// True if `format` names a compressedDepth message ("...; compressedDepth...").
-bool IsCompressedDepth(const std::string& format);
-
 // The depth image a compressedDepth message holds: 16UC1 in millimetres, little-endian,
 // the message's header; 32FC1 input becomes millimetres as ros_frames.h converts 32FC1
 // (NaN, inf, <= 0 and beyond 65.535 m become 0). InvalidArgument naming `topic` and the

@@ -11,22 +11,19 @@
 
 namespace skimap::bag {
 
-// One camera's undistortion maps (cv::remap's fixed-point form) and what they are for.
+// One camera's undistortion maps (cv::remap's fixed-point form) and the camera_info they
+// are for.
 struct Rectifier::Maps {
-  uint32_t width = 0, height = 0;
-  boost::array<double, 9> K{};
-  std::string model;
-  std::vector<double> D;
+  sensor_msgs::CameraInfo camera;
   cv::Mat map1, map2;
 };
 
 namespace {
 
-bool SameCamera(const sensor_msgs::CameraInfo& info, uint32_t width, uint32_t height,
-                const boost::array<double, 9>& K, const std::string& model,
-                const std::vector<double>& D) {
-  return info.width == width && info.height == height && info.K == K &&
-         info.distortion_model == model && info.D == D;
+// What the maps depend on: the size, K and the distortion.
+bool SameCamera(const sensor_msgs::CameraInfo& a, const sensor_msgs::CameraInfo& b) {
+  return a.width == b.width && a.height == b.height && a.K == b.K &&
+         a.distortion_model == b.distortion_model && a.D == b.D;
 }
 
 }  // namespace
@@ -45,8 +42,7 @@ absl::StatusOr<std::shared_ptr<const Rectifier::Maps>> Rectifier::MapsFor(
     const sensor_msgs::CameraInfo& info, const std::string& info_topic) {
   {
     MutexLock lock(&mu_);
-    if (maps_ != nullptr &&
-        SameCamera(info, maps_->width, maps_->height, maps_->K, maps_->model, maps_->D)) {
+    if (maps_ != nullptr && SameCamera(info, maps_->camera)) {
       return maps_;
     }
   }
@@ -83,11 +79,7 @@ absl::StatusOr<std::shared_ptr<const Rectifier::Maps>> Rectifier::MapsFor(
         "or rectified images with D all zero)"));
   }
   auto maps = std::make_shared<Maps>();
-  maps->width = info.width;
-  maps->height = info.height;
-  maps->K = info.K;
-  maps->model = info.distortion_model;
-  maps->D = info.D;
+  maps->camera = info;
   // The lens's own K (a skew included) in, the pinhole camera the frame names out.
   const cv::Matx33d K(info.K.data());
   const cv::Matx33d pinhole(info.K[0], 0, info.K[2], 0, info.K[4], info.K[5], 0, 0, 1);
@@ -134,12 +126,9 @@ absl::Status Rectifier::Rectify(const sensor_msgs::CameraInfo& info, const std::
 
   v1::Frame& f = frame->frame;
   if (f.color_encoding() == v1::COLOR_ENCODING_NONE) return absl::OkStatus();
-  perception::ColorImage color;
-  if (f.color_encoding() == v1::COLOR_ENCODING_RAW_RGB8) {
-    color.width = w;
-    color.height = h;
-    color.rgb.assign(f.color().begin(), f.color().end());
-  } else {
+  perception::ColorImage color;  // decoded colour; raw colour is remapped where it is
+  uint8_t* rgb_data = reinterpret_cast<uint8_t*>(f.mutable_color()->data());
+  if (f.color_encoding() != v1::COLOR_ENCODING_RAW_RGB8) {
     const auto codec = f.color_encoding() == v1::COLOR_ENCODING_JPEG ? perception::ColorCodec::kJpeg
                                                                      : perception::ColorCodec::kPng;
     absl::StatusOr<perception::ColorImage> decoded =
@@ -149,8 +138,9 @@ absl::Status Rectifier::Rectify(const sensor_msgs::CameraInfo& info, const std::
           color_topic, ": undistorting the colour image: ", decoded.status().message()));
     }
     color = *std::move(decoded);
+    rgb_data = color.rgb.data();
   }
-  const cv::Mat rgb(h, w, CV_8UC3, color.rgb.data());
+  const cv::Mat rgb(h, w, CV_8UC3, rgb_data);
   cv::Mat out;
   cv::remap(rgb, out, m.map1, m.map2, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar());
   f.set_color(reinterpret_cast<const char*>(out.data), size_t(w) * h * 3);

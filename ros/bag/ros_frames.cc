@@ -64,10 +64,7 @@ absl::Status ConvertDepth(const sensor_msgs::Image& depth, const std::string& to
         if (swap) bits = __builtin_bswap32(bits);
         float metres;
         std::memcpy(&metres, &bits, 4);
-        const double mm = double(metres) * 1000.0;
-        out->depth_mm[size_t(y) * w + x] = std::isfinite(mm) && mm > 0 && mm < 65535.5
-                                               ? static_cast<uint16_t>(std::lround(mm))
-                                               : 0;
+        out->depth_mm[size_t(y) * w + x] = MillimetresOf(metres);
       }
     }
   } else {

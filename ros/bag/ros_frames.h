@@ -19,6 +19,7 @@
 #include <sensor_msgs/Image.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -38,6 +39,13 @@ struct ColorMessage {
 
 // Largest image side accepted (the server's limit).
 inline constexpr uint32_t kMaxImageSide = 8192;
+
+// A depth in metres (32FC1) as millimetres: NaN, inf, <= 0 and beyond 65.535 m become 0
+// (no measurement).
+inline uint16_t MillimetresOf(float metres) {
+  const double mm = double(metres) * 1000.0;
+  return std::isfinite(mm) && mm > 0 && mm < 65535.5 ? static_cast<uint16_t>(std::lround(mm)) : 0;
+}
 
 // Checks and converts. InvalidArgument naming the topic and field for: an unsupported
 // depth or colour encoding, a size of 0 or above kMaxImageSide, a step too small for the

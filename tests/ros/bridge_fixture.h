@@ -140,8 +140,11 @@ class BridgeTest : public ::testing::Test {
     bridge_ = -1;
     return status;
   }
-  std::string BridgeLog() {
-    std::ifstream in(dir_ / "bridge.log");
+  std::string BridgeLog() { return ReadFile(dir_ / "bridge.log"); }
+  // The report the bridge writes at exit (~stats_file): counters and latencies as JSON.
+  std::string StatsJson() { return ReadFile(dir_ / "stats.json"); }
+  static std::string ReadFile(const fs::path& path) {
+    std::ifstream in(path);
     std::stringstream s;
     s << in.rdbuf();
     return s.str();

@@ -19,10 +19,7 @@ TEST_F(BridgeTest, AStalledServerMakesTheBridgeDropAndCountNotQueue) {
   server_.Signal(SIGCONT);
   ros::WallDuration(3.0).sleep();
   EXPECT_EQ(StopBridge(), 0) << BridgeLog();
-  std::ifstream stats(dir_ / "stats.json");
-  std::stringstream text;
-  text << stats.rdbuf();
-  const std::string json = text.str();
+  const std::string json = StatsJson();
   const auto number = [&](const std::string& key) {
     const size_t at = json.find("\"" + key + "\": ");
     return at == std::string::npos ? -1 : std::atoi(json.c_str() + at + key.size() + 4);
@@ -74,10 +71,8 @@ TEST_F(BridgeTest, TheBridgeReconnectsAfterSkimapdRestarts) {
   }
   EXPECT_GE(frames(), 6u) << BridgeLog();
   EXPECT_EQ(StopBridge(), 0) << BridgeLog();
-  std::ifstream stats(dir_ / "stats.json");
-  std::stringstream text;
-  text << stats.rdbuf();
-  EXPECT_NE(text.str().find("\"acked\": "), std::string::npos);
+  const std::string stats = StatsJson();
+  EXPECT_NE(stats.find("\"acked\": "), std::string::npos);
   kill(own, SIGTERM);
   waitpid(own, nullptr, 0);
 }
@@ -113,10 +108,8 @@ TEST_F(BridgeTest, AHungSkimapdDoesNotHoldTheNodesShutdown) {
   EXPECT_LT(seconds, 10 + 2 + 10) << BridgeLog();
   EXPECT_NE(BridgeLog().find("did not release the stream within 2.0 s"), std::string::npos)
       << BridgeLog();
-  std::ifstream stats(dir_ / "stats.json");
-  std::stringstream text;
-  text << stats.rdbuf();
-  EXPECT_NE(text.str().find("\"offered\": 30"), std::string::npos) << text.str();
+  const std::string stats = StatsJson();
+  EXPECT_NE(stats.find("\"offered\": 30"), std::string::npos) << stats;
 }
 
 }  // namespace
