@@ -24,7 +24,9 @@ namespace {
 
 int ThisThreadNice() { return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))); }
 
-// Threads of this process at niceness `nice` (field 19 of /proc/self/task/*/stat).
+// Live threads of this process at niceness `nice` (field 19 of /proc/self/task/*/stat).
+// A thread that is exiting may still be listed, with an empty stat or in state Z/X, for a
+// moment after join() returned: it is not counted.
 int ThreadsAtNice(int nice) {
   int count = 0;
   DIR* dir = opendir("/proc/self/task");
@@ -34,13 +36,26 @@ int ThreadsAtNice(int nice) {
     std::ifstream in(std::string("/proc/self/task/") + e->d_name + "/stat");
     std::string stat((std::istreambuf_iterator<char>(in)), {});
     // Fields after the command (in parentheses, may hold spaces): state is field 3.
-    std::istringstream rest(stat.substr(stat.rfind(')') + 2));
+    const size_t paren = stat.rfind(')');
+    if (paren == std::string::npos || paren + 2 >= stat.size()) continue;  // gone meanwhile
+    std::istringstream rest(stat.substr(paren + 2));
     std::string field;
     for (int i = 3; i <= 19 && rest >> field; ++i) {
+      if (i == 3 && (field == "Z" || field == "X")) break;
       if (i == 19 && std::stoi(field) == nice) ++count;
     }
   }
   closedir(dir);
+  return count;
+}
+
+// ThreadsAtNice(nice) once it has settled at `want`, or its last value after ~5 s.
+int ThreadsAtNiceSettled(int nice, int want) {
+  int count = ThreadsAtNice(nice);
+  for (int i = 0; i < 500 && count != want; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    count = ThreadsAtNice(nice);
+  }
   return count;
 }
 
@@ -60,19 +75,14 @@ TEST(IngestPriorityTest, PoolAndQueueWorkersRunAtTheirNiceAndCallersDoNot) {
 }
 
 TEST(IngestPriorityTest, MapServiceRunsItsIngestionThreadsAtIngestNice) {
-  ASSERT_EQ(ThreadsAtNice(13), 0);
+  ASSERT_EQ(ThreadsAtNiceSettled(13, 0), 0);
   MapService service({.worker_threads = 2, .ingest_nice = 13});
   v1::CreateMapRequest request;
   request.set_map_id("m");
   ASSERT_TRUE(service.CreateMap(request).ok());
   // The pool's 2 workers, the 2 decoders and the map's worker: each sets its niceness as
   // it starts, so the count gets there shortly after (slower under sanitizers).
-  int count = ThreadsAtNice(13);
-  for (int i = 0; i < 500 && count < 5; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    count = ThreadsAtNice(13);
-  }
-  EXPECT_EQ(count, 5);
+  EXPECT_EQ(ThreadsAtNiceSettled(13, 5), 5);
 }
 
 TEST(IngestPriorityTest, RecognitionUnderNewestRunsNicerThanIngestion) {
@@ -83,7 +93,7 @@ TEST(IngestPriorityTest, RecognitionUnderNewestRunsNicerThanIngestion) {
   EXPECT_EQ(RecognitionNice(false, 12), 19);
   EXPECT_EQ(RecognitionNice(true, 5), 0);
   // The queue's two threads (prepare and run) take it.
-  ASSERT_EQ(ThreadsAtNice(17), 0);
+  ASSERT_EQ(ThreadsAtNiceSettled(17, 0), 0);
   std::promise<int> prepared, ran;
   {
     RecognitionQueue queue(
@@ -96,7 +106,8 @@ TEST(IngestPriorityTest, RecognitionUnderNewestRunsNicerThanIngestion) {
     EXPECT_EQ(prepared.get_future().get(), 17);
     EXPECT_EQ(ran.get_future().get(), 17);
   }
-  EXPECT_EQ(ThreadsAtNice(17), 0);  // gone with the queue
+  // Gone with the queue (a joined thread can stay listed for a moment as it exits).
+  EXPECT_EQ(ThreadsAtNiceSettled(17, 0), 0);
 }
 
 }  // namespace
