@@ -226,10 +226,12 @@ TEST_F(PgFailoverTest, KillingTheDatabasePrimaryTenTimesLosesNoAcknowledgedFrame
               Summary(seconds).c_str());
   std::printf("pg_failover_test: node 0 store metrics:\n%s", StoreMetrics(0).c_str());
   ASSERT_EQ(seconds.size(), size_t(kKills));
-  // Measured 6-8 s here (2026-11-28: 2 s to call the primary unhealthy, 3 s of demotion
-  // timeout, the promotion, and the killed node's return as the synchronous standby that
-  // --store_durability=standby waits for); the bound leaves room for a loaded CI machine.
-  for (double s : seconds) EXPECT_LT(s, 30.0);
+  // Measured 6-8 s here on 2026-11-28 and 12-15 s alone on 2026-12-01 (2 s to call the
+  // primary unhealthy, 3 s of demotion timeout, the promotion, and the killed node's return
+  // as the synchronous standby that --store_durability=standby waits for), but median 23 s
+  // and up to 37 s in the test command's release pass, beside the compute-bound tests and
+  // the ASan build: the bound is for that loaded machine.
+  for (double s : seconds) EXPECT_LT(s, 60.0);
   ASSERT_NO_FATAL_FAILURE(ExpectEveryFrameOnceAndAConsistentDatabase(kFrames));
   const std::string metrics = StoreMetrics(0) + StoreMetrics(1);
   EXPECT_NE(metrics.find("skimap_store_reconnects_total"), std::string::npos) << metrics;
