@@ -66,7 +66,8 @@ int main(int argc, char** argv) {
   if (!seq.ok()) Die(seq.status().ToString());
   std::map<int, Bin> bins;  // by distance, 0.5 m
   int frames = 0;
-  double all_keypoints = 0, observe_ms = 0, alt_ms = 0, alt_count = 0;
+  double all_keypoints = 0, observe_ms = 0, alt_ms = 0, alt_count = 0, all_labels = 0,
+         labels_in_masks = 0;
   for (size_t i = 0; i < seq->frames.size(); i += absl::GetFlag(FLAGS_every)) {
     const dataset::Frame& f = seq->frames[i];
     absl::StatusOr<dataset::FrameImages> img = dataset::LoadFrameImages(f, true);
@@ -80,6 +81,7 @@ int main(int argc, char** argv) {
     const auto t1 = std::chrono::steady_clock::now();
     observe_ms += std::chrono::duration<double, std::milli>(t1 - t0).count();
     if (!obs.ok()) Die(obs.status().ToString());
+    all_labels += obs->labels.size();
     absl::StatusOr<objects::Features> feats = (*extractor)->Extract(img->rgb);
     if (!feats.ok()) Die(feats.status().ToString());
     std::vector<cv::KeyPoint> alt;
@@ -116,6 +118,7 @@ int main(int argc, char** argv) {
         const int v = std::lround(f.K.fy * l.point.y() / l.point.z() + f.K.cy);
         if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows || !mask.at<uint8_t>(v, u)) continue;
         ++b.labels;
+        ++labels_in_masks;
         Eigen::Vector3f point;
         int object = -1;
         if (model->ClassPoint(l.cls, &point, &object) && model->object(object).obj_id == a.obj_id) {
@@ -133,6 +136,9 @@ int main(int argc, char** argv) {
               db->params().features.max_features);
   std::printf("Observe %.1f ms per frame; upsampled detection alone %.1f ms, %.0f keypoints\n",
               observe_ms / frames, alt_ms / frames, alt_count / frames);
+  // Where the frame's labels lie: most on the background (floor, walls, tables).
+  std::printf("%.1f labels per frame, %.1f of them on an annotated object in view\n",
+              all_labels / std::max(frames, 1), labels_in_masks / std::max(frames, 1));
   std::printf(
       "| distance (m) | object views | visible px | keypoints in mask | labels in mask | "
       "right object | ... within 2 cm of its class point | ... 4 cm | keypoints in mask, 2x "
