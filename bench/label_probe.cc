@@ -6,7 +6,7 @@
 // with a peer: docs/recognition.md ("Robot view") quotes what it showed.
 //
 //   build/bench/bench/label_probe --db=DATA_DIR/objects.sqlite --scene=DATASET/test/000001
-//       [--every=10] [--upsampled_contrast=0.04]
+//       [--every=10] [--verify_threshold=D] [--upsampled_contrast=0.04]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -29,9 +29,12 @@
 ABSL_FLAG(std::string, db, "", "object database (a skimapd data dir's objects.sqlite)");
 ABSL_FLAG(std::string, scene, "", "BOP scene folder");
 ABSL_FLAG(int, every, 10, "probe every n-th frame");
+ABSL_FLAG(double, verify_threshold, 0,
+          "verify keypoints against their class's centroids at this distance instead of the "
+          "database's (0: the database's)");
 ABSL_FLAG(double, upsampled_contrast, 0.04,
           "SIFT contrast threshold of the last column: keypoints the image upsampled 2x "
-          "would give (4000 at most; its detection time is printed)");
+          "would give (4000 at most; its detection time is printed; 0: not measured)");
 
 namespace {
 
@@ -54,6 +57,12 @@ int main(int argc, char** argv) {
   absl::StatusOr<objects::ObjectDatabase> loaded =
       objects::LoadObjectDatabase(absl::GetFlag(FLAGS_db));
   if (!loaded.ok()) Die(loaded.status().ToString());
+  if (const double t = absl::GetFlag(FLAGS_verify_threshold); t > 0) {
+    objects::ObjectDatabaseParams params = loaded->params();
+    params.verify_threshold = t;
+    loaded = objects::ObjectDatabase::Create(params, loaded->objects(), loaded->forest());
+    if (!loaded.ok()) Die(loaded.status().ToString());
+  }
   auto db = std::make_shared<const objects::ObjectDatabase>(*std::move(loaded));
   absl::StatusOr<recognition::RecognitionModel> model =
       recognition::RecognitionModel::Create(db, {});
@@ -85,7 +94,7 @@ int main(int argc, char** argv) {
     absl::StatusOr<objects::Features> feats = (*extractor)->Extract(img->rgb);
     if (!feats.ok()) Die(feats.status().ToString());
     std::vector<cv::KeyPoint> alt;
-    {
+    if (absl::GetFlag(FLAGS_upsampled_contrast) > 0) {
       cv::Mat up;
       cv::resize(img->rgb, up, {}, 2, 2, cv::INTER_LINEAR);
       cv::SIFT::create(4000, 3, absl::GetFlag(FLAGS_upsampled_contrast))->detect(up, alt);

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "client/map_client.h"
@@ -22,11 +23,24 @@
 namespace skimap::testing {
 namespace {
 
-// skimapd as a child process on a free loopback port, its files under a fresh `dir`.
+// skimapd as a child process on a free loopback port, its files under a fresh `dir`. A
+// test that stops early (a failed ASSERT) kills it on the way out: an orphaned skimapd
+// keeps the test's output pipe open, and ctest would wait for it until its timeout.
 struct ChildServer {
   std::string dir, address;
-  pid_t pid = -1;
+  pid_t pid = -1;  // -1: none, or reaped
   std::unique_ptr<client::MapClient> client;
+
+  ChildServer() = default;
+  ChildServer(ChildServer&& o) noexcept
+      : dir(std::move(o.dir)),
+        address(std::move(o.address)),
+        pid(std::exchange(o.pid, -1)),
+        client(std::move(o.client)) {}
+  ChildServer& operator=(ChildServer&&) = delete;
+  ~ChildServer() {
+    if (pid > 0 && kill(pid, SIGKILL) == 0) waitpid(pid, nullptr, 0);
+  }
 };
 
 ChildServer StartSkimapd(const std::string& name) {
@@ -41,14 +55,15 @@ ChildServer StartSkimapd(const std::string& name) {
 }
 
 // Sends SIGTERM and waits; the wait status (-1 if it cannot be had).
-int StopSkimapd(const ChildServer& s) {
+int StopSkimapd(ChildServer& s) {
   int status = -1;
   if (kill(s.pid, SIGTERM) != 0 || waitpid(s.pid, &status, 0) != s.pid) return -1;
+  s.pid = -1;
   return status;
 }
 
 TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
-  const ChildServer server = StartSkimapd("skimap_process_test");
+  ChildServer server = StartSkimapd("skimap_process_test");
   ASSERT_GE(server.pid, 0);
   const std::string& dir = server.dir;
   const std::string& address = server.address;
@@ -88,7 +103,7 @@ TEST(ProcessTest, SkimapdServesTheCliAndStopsCleanlyOnSigterm) {
 }
 
 TEST(ProcessTest, CliStreamsRealFramesInEveryDepthEncodingAndRefusesAnUnknownOne) {
-  const ChildServer server = StartSkimapd("skimap_stream_cli");
+  ChildServer server = StartSkimapd("skimap_stream_cli");
   ASSERT_GE(server.pid, 0);
   const std::string& dir = server.dir;
   client::MapClient* client = server.client.get();
@@ -124,7 +139,7 @@ TEST(ProcessTest, CliStreamsRealFramesInEveryDepthEncodingAndRefusesAnUnknownOne
 }
 
 TEST(ProcessTest, CliSetsEveryMapOptionAndRefusesBadOnesByName) {
-  const ChildServer server = StartSkimapd("skimap_map_options_cli");
+  ChildServer server = StartSkimapd("skimap_map_options_cli");
   ASSERT_GE(server.pid, 0);
   const std::string& dir = server.dir;
   client::MapClient* client = server.client.get();

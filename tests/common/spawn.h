@@ -7,13 +7,15 @@
 //
 //   pid_t pid = SpawnProcess({SKIMAPD_PATH, "--address=127.0.0.1:5000"});
 //
-// Thread safety: a pure function.
+// Thread safety: pure functions; a KillOnExit belongs to one thread.
 #ifndef TESTS_COMMON_SPAWN_H_
 #define TESTS_COMMON_SPAWN_H_
 
 #include <fcntl.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/types.h>
+#include <sys/wait.h>
 
 #include <string>
 #include <vector>
@@ -51,6 +53,20 @@ inline pid_t SpawnProcess(const std::vector<std::string>& args, const SpawnOptio
   posix_spawn_file_actions_destroy(&actions);
   return error == 0 ? pid : -1;
 }
+
+// A failed assertion returns early: a child must not outlive the test (an orphan that holds
+// the test's output pipe keeps ctest waiting until its timeout). Kills and reaps *pid on
+// scope exit unless the test set it to 0 after reaping the child itself.
+//
+//   pid_t pid = SpawnProcess({...});
+//   const KillOnExit reaper{&pid};
+//   ...; waitpid(pid, &status, 0); pid = 0;
+struct KillOnExit {
+  pid_t* pid;
+  ~KillOnExit() {
+    if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
+  }
+};
 
 }  // namespace skimap::testing
 

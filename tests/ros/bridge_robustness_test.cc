@@ -43,6 +43,7 @@ TEST_F(BridgeTest, TheBridgeReconnectsAfterSkimapdRestarts) {
                          "--http_address=", "--worker_threads=1"});
   };
   pid_t own = start();
+  const KillOnExit reaper{&own};
   auto own_client = client::MapClient::Connect(address);
   ASSERT_TRUE(own_client->WaitForServer(absl::Seconds(20)).ok());
   ros::NodeHandle nh;
@@ -75,6 +76,7 @@ TEST_F(BridgeTest, TheBridgeReconnectsAfterSkimapdRestarts) {
   EXPECT_NE(stats.find("\"acked\": "), std::string::npos);
   kill(own, SIGTERM);
   waitpid(own, nullptr, 0);
+  own = 0;
 }
 
 TEST_F(BridgeTest, ABadParameterStopsTheBridgeWithItsName) {

@@ -33,15 +33,6 @@ void Stop(pid_t pid) {
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 }
 
-// A failed assertion returns early: the server must not outlive the test. Kills *pid
-// unless the test set it to 0 after stopping the server itself.
-struct KillOnExit {
-  pid_t* pid;
-  ~KillOnExit() {
-    if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
-  }
-};
-
 // Runs the CLI; its exit code and stdout.
 int Cli(const std::string& args, std::string* out) {
   FILE* p = popen(absl::StrCat(SKIMAP_CLI_PATH, " ", args, " 2>/dev/null").c_str(), "r");

@@ -39,24 +39,28 @@ TEST(RosMarkersTest, EveryInstanceIsAMarkerATfFrameAndInTheSphereService) {
   const std::string master_uri = absl::StrCat("http://127.0.0.1:", port);
   setenv("ROS_MASTER_URI", master_uri.c_str(), 1);
   setenv("ROS_IP", "127.0.0.1", 1);
-  const pid_t master = SpawnProcess(
+  pid_t master = SpawnProcess(
       {"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p", std::to_string(port)});
+  const KillOnExit master_reaper{&master};
   ASSERT_GT(master, 0);
   const std::string log = absl::StrCat(w.data_dir, "/bridge.log");
   SpawnOptions options;
   options.stdout_path = options.stderr_path = log;
-  const pid_t bridge = SpawnProcess({SKIMAP_ROS_PATH, "__ns:=/robot", "__name:=skimap_ros",
+  pid_t bridge = SpawnProcess({SKIMAP_ROS_PATH, "__ns:=/robot", "__name:=skimap_ros",
                                      absl::StrCat("_server:=127.0.0.1:", w.server->grpc_port()),
                                      "_map:=scene", "_fixed_frame:=world", "_publish_rate:=5.0"},
                                     options);
+  const KillOnExit bridge_reaper{&bridge};
   ASSERT_GT(bridge, 0);
   const std::string out = Capture(absl::StrCat(SKIMAP_ROS_PROBE_PATH, " /robot/instances ",
                                                "/robot/skimap_ros/instances_in_sphere 60"));
   kill(bridge, SIGINT);
   int status = -1;
   waitpid(bridge, &status, 0);
+  bridge = 0;
   kill(master, SIGTERM);
   waitpid(master, nullptr, 0);
+  master = 0;
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 
   const size_t n = instances.size();
