@@ -47,9 +47,9 @@ TEST(RosMarkersTest, EveryInstanceIsAMarkerATfFrameAndInTheSphereService) {
   SpawnOptions options;
   options.stdout_path = options.stderr_path = log;
   pid_t bridge = SpawnProcess({SKIMAP_ROS_PATH, "__ns:=/robot", "__name:=skimap_ros",
-                                     absl::StrCat("_server:=127.0.0.1:", w.server->grpc_port()),
-                                     "_map:=scene", "_fixed_frame:=world", "_publish_rate:=5.0"},
-                                    options);
+                               absl::StrCat("_server:=127.0.0.1:", w.server->grpc_port()),
+                               "_map:=scene", "_fixed_frame:=world", "_publish_rate:=5.0"},
+                              options);
   const KillOnExit bridge_reaper{&bridge};
   ASSERT_GT(bridge, 0);
   const std::string out = Capture(absl::StrCat(SKIMAP_ROS_PROBE_PATH, " /robot/instances ",
