@@ -38,9 +38,7 @@ struct ChildServer {
         pid(std::exchange(o.pid, -1)),
         client(std::move(o.client)) {}
   ChildServer& operator=(ChildServer&&) = delete;
-  ~ChildServer() {
-    if (pid > 0 && kill(pid, SIGKILL) == 0) waitpid(pid, nullptr, 0);
-  }
+  ~ChildServer() { KillAndReap(pid); }
 };
 
 ChildServer StartSkimapd(const std::string& name) {

@@ -54,6 +54,11 @@ inline pid_t SpawnProcess(const std::vector<std::string>& args, const SpawnOptio
   return error == 0 ? pid : -1;
 }
 
+// SIGKILL and reap `pid` if it is still a child of ours (pid <= 0: nothing).
+inline void KillAndReap(pid_t pid) {
+  if (pid > 0 && kill(pid, SIGKILL) == 0) waitpid(pid, nullptr, 0);
+}
+
 // A failed assertion returns early: a child must not outlive the test (an orphan that holds
 // the test's output pipe keeps ctest waiting until its timeout). Kills and reaps *pid on
 // scope exit unless the test set it to 0 after reaping the child itself.
@@ -63,9 +68,7 @@ inline pid_t SpawnProcess(const std::vector<std::string>& args, const SpawnOptio
 //   ...; waitpid(pid, &status, 0); pid = 0;
 struct KillOnExit {
   pid_t* pid;
-  ~KillOnExit() {
-    if (*pid > 0 && kill(*pid, SIGKILL) == 0) waitpid(*pid, nullptr, 0);
-  }
+  ~KillOnExit() { KillAndReap(*pid); }
 };
 
 }  // namespace skimap::testing
