@@ -47,6 +47,10 @@ ABSL_FLAG(int, classes_per_object, 0, "objects build: k voxels per object (0 = s
 ABSL_FLAG(int, trees, 0, "objects build: forest trees (0 = stored/24)");
 ABSL_FLAG(int, tree_depth, 0,
           "objects build: forest (tree) depth, ClassifierParams.max_depth (0 = stored/24)");
+ABSL_FLAG(double, verify_threshold, 0,
+          "objects build: descriptor distance a candidate voxel must be within to verify a "
+          "feature (0 = stored/the detector's default: SIFT 250, binary 0.3 x bits)");
+ABSL_FLAG(int, top_n, 0, "objects build: candidate voxels verified per feature (0 = stored/3)");
 
 namespace skimap::client {
 namespace {
@@ -269,6 +273,10 @@ absl::Status Build(ObjectClient& client) {
   }
   if (int t = absl::GetFlag(FLAGS_trees); t > 0) request.mutable_params()->set_trees(t);
   if (int d = absl::GetFlag(FLAGS_tree_depth); d > 0) request.mutable_params()->set_max_depth(d);
+  if (double v = absl::GetFlag(FLAGS_verify_threshold); v != 0) {
+    request.mutable_params()->set_verify_threshold(v);  // the server names a bad value
+  }
+  if (int n = absl::GetFlag(FLAGS_top_n); n != 0) request.mutable_params()->set_top_n(n);
   absl::StatusOr<v1::Operation> op = client.BuildClassifier(request);
   if (!op.ok()) return op.status();
   op = client.WaitDone(op->name(), PrintProgress);
@@ -277,6 +285,8 @@ absl::Status Build(ObjectClient& client) {
   std::printf("classifier ready: %d objects, %u classes, %u trees x depth %u, %.1f MiB\n",
               c.objects_size(), c.classes(), c.params().trees(), c.params().max_depth(),
               c.model_bytes() / 1048576.0);
+  std::printf("verification: descriptor distance <= %g, %u candidate classes per feature\n",
+              c.params().verify_threshold(), c.params().top_n());
   std::printf(
       "maps list its instances at score >= %g (scaled by size), fit >= %g, view "
       "conflict <= %g (%s's; a map may set its own)\n",

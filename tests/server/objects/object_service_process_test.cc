@@ -69,6 +69,18 @@ TEST(ObjectsCliTest, TrainAndListAgainstSkimapdAcrossARestart) {
       << out;
   EXPECT_NE(out.find("objects/2"), std::string::npos) << out;
   EXPECT_NE(out.find("cereal"), std::string::npos) << out;
+  // Verification's parameters from the CLI: a value the server refuses fails the command
+  // and changes nothing; good ones are stored with the classifier and printed.
+  EXPECT_EQ(Cli(absl::StrCat("--server=", server, " objects build --top_n=65"), &out), 1);
+  ASSERT_EQ(Cli(absl::StrCat("--server=", server,
+                             " objects build --classes_per_object=20 --verify_threshold=180 "
+                             "--top_n=2"),
+                &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("verification: descriptor distance <= 180, 2 candidate classes per feature"),
+            std::string::npos)
+      << out;
   Stop(pid);
 
   pid = StartSkimapd(server, data);
