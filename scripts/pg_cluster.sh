@@ -52,14 +52,17 @@ spawn() {  # spawn NAME ARGS...: pg_autoctl in its own process group; its pid in
   echo $! >"$dir/$name.pid"
 }
 signal_group() {  # signal_group SIGNAL NAME: the keeper's process group, then postgres's
-  local pid postmaster=
+  local pid postmaster= children=
   pid=$(cat "$dir/$2.pid" 2>/dev/null) || return 0
   [ -f "$dir/$2/postmaster.pid" ] && postmaster=$(head -1 "$dir/$2/postmaster.pid")
-  kill "-$1" -- "-$pid" 2>/dev/null || true
   # Backends and the server's workers run in sessions of their own (postgres calls setsid
-  # for each child): a node is all of them.
+  # for each child): a node is all of them. They are listed before anything is signalled:
+  # once the postmaster is dead they belong to init, and some (the logger, the monitor's
+  # health-check worker) outlive it.
+  [ -n "$postmaster" ] && children=$(pgrep -P "$postmaster" 2>/dev/null || true)
+  kill "-$1" -- "-$pid" 2>/dev/null || true
   if [ -n "$postmaster" ]; then
-    for child in $(pgrep -P "$postmaster" 2>/dev/null); do kill "-$1" "$child" 2>/dev/null || true; done
+    for child in $children; do kill "-$1" "$child" 2>/dev/null || true; done
     kill "-$1" "$postmaster" 2>/dev/null || true
   fi
 }
