@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
   std::map<int, Bin> bins;  // by distance, 0.5 m
   int frames = 0;
   double all_keypoints = 0, observe_ms = 0, alt_ms = 0, alt_count = 0, all_labels = 0,
-         labels_in_masks = 0;
+         labels_in_masks = 0, observed_keypoints = 0, with_depth = 0, labels_on_floor = 0;
   for (size_t i = 0; i < seq->frames.size(); i += absl::GetFlag(FLAGS_every)) {
     const dataset::Frame& f = seq->frames[i];
     absl::StatusOr<dataset::FrameImages> img = dataset::LoadFrameImages(f, true);
@@ -91,6 +91,13 @@ int main(int argc, char** argv) {
     observe_ms += std::chrono::duration<double, std::milli>(t1 - t0).count();
     if (!obs.ok()) Die(obs.status().ToString());
     all_labels += obs->labels.size();
+    observed_keypoints += obs->features;
+    with_depth += obs->with_depth;
+    // Labels on the floor (world z below 2 cm; the sim's floor is z = 0).
+    const Eigen::Matrix3d r = frame->pose.rotation.toRotationMatrix();
+    for (const recognition::LabelObservation& l : obs->labels) {
+      labels_on_floor += (r * l.point.cast<double>() + frame->pose.translation).z() < 0.02;
+    }
     absl::StatusOr<objects::Features> feats = (*extractor)->Extract(img->rgb);
     if (!feats.ok()) Die(feats.status().ToString());
     std::vector<cv::KeyPoint> alt;
@@ -146,8 +153,12 @@ int main(int argc, char** argv) {
   std::printf("Observe %.1f ms per frame; upsampled detection alone %.1f ms, %.0f keypoints\n",
               observe_ms / frames, alt_ms / frames, alt_count / frames);
   // Where the frame's labels lie: most on the background (floor, walls, tables).
-  std::printf("%.1f labels per frame, %.1f of them on an annotated object in view\n",
-              all_labels / std::max(frames, 1), labels_in_masks / std::max(frames, 1));
+  std::printf("%.1f labels per frame, %.1f of them on an annotated object in view, %.1f on the "
+              "floor (world z < 2 cm)\n",
+              all_labels / std::max(frames, 1), labels_in_masks / std::max(frames, 1),
+              labels_on_floor / std::max(frames, 1));
+  std::printf("the observer: %.0f keypoints per frame, %.0f with a depth in range\n",
+              observed_keypoints / std::max(frames, 1), with_depth / std::max(frames, 1));
   std::printf(
       "| distance (m) | object views | visible px | keypoints in mask | labels in mask | "
       "right object | ... within 2 cm of its class point | ... 4 cm | keypoints in mask, 2x "
