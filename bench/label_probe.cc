@@ -153,10 +153,11 @@ int main(int argc, char** argv) {
   std::printf("Observe %.1f ms per frame; upsampled detection alone %.1f ms, %.0f keypoints\n",
               observe_ms / frames, alt_ms / frames, alt_count / frames);
   // Where the frame's labels lie: most on the background (floor, walls, tables).
-  std::printf("%.1f labels per frame, %.1f of them on an annotated object in view, %.1f on the "
-              "floor (world z < 2 cm)\n",
-              all_labels / std::max(frames, 1), labels_in_masks / std::max(frames, 1),
-              labels_on_floor / std::max(frames, 1));
+  std::printf(
+      "%.1f labels per frame, %.1f of them on an annotated object in view, %.1f on the "
+      "floor (world z < 2 cm)\n",
+      all_labels / std::max(frames, 1), labels_in_masks / std::max(frames, 1),
+      labels_on_floor / std::max(frames, 1));
   std::printf("the observer: %.0f keypoints per frame, %.0f with a depth in range\n",
               observed_keypoints / std::max(frames, 1), with_depth / std::max(frames, 1));
   std::printf(
