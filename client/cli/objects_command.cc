@@ -49,7 +49,8 @@ ABSL_FLAG(int, tree_depth, 0,
           "objects build: forest (tree) depth, ClassifierParams.max_depth (0 = stored/24)");
 ABSL_FLAG(double, verify_threshold, 0,
           "objects build: descriptor distance a candidate voxel must be within to verify a "
-          "feature (0 = stored/the detector's default: SIFT 250, binary 0.3 x bits)");
+          "feature (0 = stored; negative = the detector's default: SIFT 250, binary 0.3 x "
+          "bits)");
 ABSL_FLAG(int, top_n, 0, "objects build: candidate voxels verified per feature (0 = stored/3)");
 
 namespace skimap::client {
@@ -274,8 +275,9 @@ absl::Status Build(ObjectClient& client) {
   if (int t = absl::GetFlag(FLAGS_trees); t > 0) request.mutable_params()->set_trees(t);
   if (int d = absl::GetFlag(FLAGS_tree_depth); d > 0) request.mutable_params()->set_max_depth(d);
   if (double v = absl::GetFlag(FLAGS_verify_threshold); v != 0) {
-    request.mutable_params()->set_verify_threshold(v);  // the server names a bad value
+    request.mutable_params()->set_verify_threshold(v);
   }
+  // Out of range (1..64): the server's error names params.top_n.
   if (int n = absl::GetFlag(FLAGS_top_n); n != 0) request.mutable_params()->set_top_n(n);
   absl::StatusOr<v1::Operation> op = client.BuildClassifier(request);
   if (!op.ok()) return op.status();

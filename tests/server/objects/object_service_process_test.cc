@@ -69,8 +69,8 @@ TEST(ObjectsCliTest, TrainAndListAgainstSkimapdAcrossARestart) {
       << out;
   EXPECT_NE(out.find("objects/2"), std::string::npos) << out;
   EXPECT_NE(out.find("cereal"), std::string::npos) << out;
-  // Verification's parameters from the CLI: a value the server refuses fails the command
-  // and changes nothing; good ones are stored with the classifier and printed.
+  // Verification's parameters from the CLI: a value the server refuses fails the command;
+  // good ones are stored with the classifier and printed.
   EXPECT_EQ(Cli(absl::StrCat("--server=", server, " objects build --top_n=65"), &out), 1);
   ASSERT_EQ(Cli(absl::StrCat("--server=", server,
                              " objects build --classes_per_object=20 --verify_threshold=180 "
