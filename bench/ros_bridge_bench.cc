@@ -9,11 +9,16 @@
 //   - at 2x and 3x that rate: the bridge's throughput, acknowledged frames per second of
 //     publishing, with what it dropped (its queue full) and what never reached it (ROS's
 //     own subscriber queues overflowing: published - offered).
-// Then the same frames as a ROS 1 bag through `skimap stream BAG` (frames/s from the CLI's
-// summary, the CLI's CPU time). Every run writes into its own fresh 2 cm map; the maps'
-// frame counts are checked against the acknowledgements.
+// Then the same frames as ROS 1 bags through `skimap stream BAG`, colour raw and as JPEG
+// (frames/s from the CLI's summary, the CPU per frame of the CLI and of skimapd). Every run writes
+// into its own fresh 2 cm map; the maps' frame counts are checked against the acknowledgements.
 //
-// Usage: ros_bridge_bench [--frames=300] [--rate=30]   (runs at rate, 2x and 3x)
+// Usage: ros_bridge_bench [--frames=300] [--rate=30] [--keep_dir] [--bags_only] [--skimapd=PATH]
+//                         [--scene=DIR]
+//   --scene: the frames of another BOP or TUM scene (default: ycbv-0000's test/000000);
+//   the bridge runs at rate, 2x and 3x; --bags_only: the bags through the CLI only;
+//   --skimapd: another server binary (e.g. one built from an older commit);
+//   --keep_dir leaves the bags, the data dir and the logs in /tmp/ros_bridge_bench_PID
 #include <fcntl.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
@@ -23,6 +28,7 @@
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <tf2_msgs/TFMessage.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -67,6 +73,22 @@ double Reap(pid_t pid) {
   wait4(pid, &status, 0, &usage);
   return usage.ru_utime.tv_sec + usage.ru_utime.tv_usec / 1e6 + usage.ru_stime.tv_sec +
          usage.ru_stime.tv_usec / 1e6;
+}
+
+// CPU seconds (user + sys) a live process has used so far, from /proc/PID/stat.
+double ProcessCpu(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t close = stat.rfind(')');
+  if (close == std::string::npos) return 0;
+  std::istringstream fields(stat.substr(close + 2));
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; fields >> field; ++i) {
+    if (i == 14 || i == 15) ticks += std::stod(field);
+    if (i == 15) break;
+  }
+  return ticks / sysconf(_SC_CLK_TCK);
 }
 
 std::string Slurp(const fs::path& path) {
@@ -151,14 +173,22 @@ BridgeRun RunBridge(const std::vector<MmFrame>& frames, int count, double rate,
 int main(int argc, char** argv) {
   int count = 300;
   double rate = 30;
+  bool keep_dir = false;
+  bool bags_only = false;
+  std::string skimapd_path = SKIMAPD_PATH;
+  std::string scene = SKIMAP_BENCH_YCBV_SCENE;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a.rfind("--frames=", 0) == 0) count = std::stoi(a.substr(9));
     if (a.rfind("--rate=", 0) == 0) rate = std::stod(a.substr(7));
+    if (a == "--keep_dir") keep_dir = true;
+    if (a == "--bags_only") bags_only = true;
+    if (a.rfind("--skimapd=", 0) == 0) skimapd_path = a.substr(10);
+    if (a.rfind("--scene=", 0) == 0) scene = a.substr(8);
   }
-  const std::vector<MmFrame> frames = skimap::testing::LoadMmFrames(SKIMAP_BENCH_YCBV_SCENE);
+  const std::vector<MmFrame> frames = skimap::testing::LoadMmFrames(scene);
   if (frames.empty()) {
-    std::fprintf(stderr, "no frames in %s\n", SKIMAP_BENCH_YCBV_SCENE);
+    std::fprintf(stderr, "no frames in %s\n", scene.c_str());
     return 1;
   }
   const fs::path dir = fs::temp_directory_path() / absl::StrCat("ros_bridge_bench_", getpid());
@@ -170,7 +200,7 @@ int main(int argc, char** argv) {
       Spawn({"/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p", std::to_string(master_port)},
             (dir / "master.log").string());
   const std::string server = absl::StrCat("127.0.0.1:", skimap::testing::FreePort());
-  const pid_t skimapd = Spawn({SKIMAPD_PATH, "--address=" + server,
+  const pid_t skimapd = Spawn({skimapd_path, "--address=" + server,
                                "--http_address=", "--data_dir=" + (dir / "data").string()},
                               (dir / "skimapd.log").string());
   auto client = skimap::client::MapClient::Connect(server);
@@ -183,8 +213,10 @@ int main(int argc, char** argv) {
   ros::AsyncSpinner spinner(1);
   spinner.start();
 
-  std::printf("ros_bridge_bench: %d frames of 640x480 (YCB-Video, cycled), 2 cm maps\n", count);
+  std::printf("ros_bridge_bench: %d frames of %dx%d from %s (%zu, cycled), 2 cm maps\n", count,
+              frames[0].width, frames[0].height, scene.c_str(), frames.size());
   for (double r : {rate, 2 * rate, 3 * rate}) {
+    if (bags_only) break;
     const std::string map = absl::StrCat("bridge", int(r));
     const BridgeRun run = RunBridge(frames, count, r, server, dir, map, *client);
     const double acked = JsonNumber(run.stats, "acked");
@@ -202,33 +234,47 @@ int main(int argc, char** argv) {
         100 * run.cpu / wall, wall, (unsigned long long)run.map_frames);
   }
 
-  // The same frames as a ROS 1 bag, through the CLI.
-  const std::string bag_path = (dir / "frames.bag").string();
-  {
-    rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
-    bag.write("/tf_static", ros::Time(1000.0), skimap::testing::LinkToOptical());
-    for (int i = 0; i < count; ++i) {
-      const MmFrame f = Nth(frames, i, ros::Time(1000.0 + i / 30.0));
-      bag.write("/tf", f.stamp, skimap::testing::WorldToLink(f));
-      bag.write("/camera/color/camera_info", f.stamp, skimap::testing::InfoMessage(f));
-      bag.write("/camera/depth/image_raw", f.stamp, skimap::testing::DepthMessage(f));
-      bag.write("/camera/color/image_raw", f.stamp, skimap::testing::ColorMessage(f));
+  // The same frames as ROS 1 bags, through the CLI: raw colour (rgb8, as the bridge got
+  // it), then colour as image_transport's JPEG (what robots usually record).
+  const auto stream_bag = [&](const std::string& name, bool jpeg_color) {
+    const std::string bag_path = (dir / (name + ".bag")).string();
+    {
+      rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
+      bag.write("/tf_static", ros::Time(1000.0), skimap::testing::LinkToOptical());
+      for (int i = 0; i < count; ++i) {
+        const MmFrame f = Nth(frames, i, ros::Time(1000.0 + i / 30.0));
+        bag.write("/tf", f.stamp, skimap::testing::WorldToLink(f));
+        bag.write("/camera/color/camera_info", f.stamp, skimap::testing::InfoMessage(f));
+        bag.write("/camera/depth/image_raw", f.stamp, skimap::testing::DepthMessage(f));
+        if (jpeg_color) {
+          bag.write("/camera/color/image_raw/compressed", f.stamp,
+                    skimap::testing::CompressedColorMessage(f));
+        } else {
+          bag.write("/camera/color/image_raw", f.stamp, skimap::testing::ColorMessage(f));
+        }
+      }
     }
-  }
-  const pid_t cli = Spawn(
-      {SKIMAP_CLI_PATH, "--server=" + server, "stream", bag_path, "--map=cli", "--resolution=0.02"},
-      (dir / "cli.log").string());
-  const double cli_cpu = Reap(cli);
-  const std::string cli_log = Slurp(dir / "cli.log");
-  std::smatch m;
-  double cli_fps = 0;
-  if (std::regex_search(cli_log, m, std::regex("\\(([0-9.]+) frames/s\\)"))) {
-    cli_fps = std::stod(m[1]);
-  }
-  auto cli_map = client->GetMap("maps/cli");
-  std::printf("skimap stream BAG: %.1f frames/s, CLI CPU %.2f s = %.1f ms/frame; map frames %llu\n",
-              cli_fps, cli_cpu, 1e3 * cli_cpu / count,
-              (unsigned long long)(cli_map.ok() ? cli_map->stats().frames() : 0));
+    const double skimapd_cpu_before = ProcessCpu(skimapd);
+    const pid_t cli = Spawn({SKIMAP_CLI_PATH, "--server=" + server, "stream", bag_path,
+                             "--map=" + name, "--resolution=0.02"},
+                            (dir / (name + ".log")).string());
+    const double cli_cpu = Reap(cli);
+    const double skimapd_cpu = ProcessCpu(skimapd) - skimapd_cpu_before;
+    const std::string cli_log = Slurp(dir / (name + ".log"));
+    std::smatch m;
+    double cli_fps = 0;
+    if (std::regex_search(cli_log, m, std::regex("\\(([0-9.]+) frames/s\\)"))) {
+      cli_fps = std::stod(m[1]);
+    }
+    auto cli_map = client->GetMap("maps/" + name);
+    std::printf(
+        "skimap stream BAG (%s colour): %.1f frames/s, CPU per frame: CLI %.1f ms, skimapd "
+        "%.1f ms; map frames %llu\n",
+        jpeg_color ? "JPEG" : "raw", cli_fps, 1e3 * cli_cpu / count, 1e3 * skimapd_cpu / count,
+        (unsigned long long)(cli_map.ok() ? cli_map->stats().frames() : 0));
+  };
+  stream_bag("cli", false);
+  stream_bag("cli_jpeg", true);
 
   // Both sides fused the same frames: the bridge's 30 Hz map (every frame acknowledged)
   // must hold exactly the CLI's voxels.
@@ -245,10 +291,13 @@ int main(int argc, char** argv) {
     }
     return out;
   };
-  const auto bridge_voxels = voxels(absl::StrCat("bridge", int(rate)));
-  const bool same = !bridge_voxels.empty() && bridge_voxels == voxels("cli");
-  std::printf("bridge at %.0f Hz and skimap stream BAG: %s voxels (%zu)\n", rate,
-              same ? "the same" : "DIFFERENT", bridge_voxels.size());
+  bool same = true;
+  if (!bags_only) {
+    const auto bridge_voxels = voxels(absl::StrCat("bridge", int(rate)));
+    same = !bridge_voxels.empty() && bridge_voxels == voxels("cli");
+    std::printf("bridge at %.0f Hz and skimap stream BAG: %s voxels (%zu)\n", rate,
+                same ? "the same" : "DIFFERENT", bridge_voxels.size());
+  }
 
   spinner.stop();
   ros::shutdown();
@@ -256,6 +305,6 @@ int main(int argc, char** argv) {
   Reap(skimapd);
   kill(master, SIGTERM);
   Reap(master);
-  fs::remove_all(dir);
+  if (!keep_dir) fs::remove_all(dir);
   return same ? 0 : 1;
 }

@@ -6,29 +6,32 @@
 # process (its start-up included) and of skimapd; docs/benchmarks.md, "Streaming from the
 # CLI".
 #
-# Usage: bench/stream_cli.sh [--build=build/release] [--reps=3] [--skimap=PATH] DATASET...
+# Usage: bench/stream_cli.sh [--build=build/release] [--reps=3] [--skimap=PATH] [--skimapd=PATH] DATASET...
 #   Extra stream flags go in $STREAM_FLAGS (e.g. STREAM_FLAGS="--depth_encoding=rvl").
 #   --skimap runs another CLI binary (e.g. one built from an older commit) against the same
-#   skimapd.
+#   skimapd; --skimapd runs another server binary the same way.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build/release
 reps=3
 skimap=""
+skimapd=""
 datasets=()
 for arg in "$@"; do
   case "$arg" in
     --build=*) build=${arg#--build=} ;;
     --reps=*) reps=${arg#--reps=} ;;
     --skimap=*) skimap=${arg#--skimap=} ;;
+    --skimapd=*) skimapd=${arg#--skimapd=} ;;
     *) datasets+=("$arg") ;;
   esac
 done
 [[ ${#datasets[@]} -gt 0 ]] || datasets=(../shared/data/ycbv-0000)
 skimap=${skimap:-$build/client/skimap}
+skimapd=${skimapd:-$build/server/skimapd}
 port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 data_dir=$(mktemp -d)
-"$build/server/skimapd" --address="127.0.0.1:$port" --http_address= --data_dir="$data_dir" \
+"$skimapd" --address="127.0.0.1:$port" --http_address= --data_dir="$data_dir" \
   >"$data_dir/skimapd.log" 2>&1 &
 server_pid=$!
 trap 'kill -INT "$server_pid" 2>/dev/null; wait "$server_pid" 2>/dev/null || true; rm -rf "$data_dir"' EXIT

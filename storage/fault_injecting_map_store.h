@@ -8,11 +8,15 @@
 // A failed write reaches nothing below (so it changes nothing, as the contract requires);
 // reads always pass through. Writes are CreateMap, DeleteMap, BeginImport, FinishImport,
 // AppendJournal, PruneJournal and WriteSnapshot, counted from 1 across all of them.
+// HoldAppends makes AppendJournal calls wait until ReleaseAppends (a map's worker is then
+// held inside an append while the test queues frames behind it); appends() and
+// appended_records() count what reached the store below.
 //
 // Thread safety: thread safe.
 #ifndef SKIMAP_STORAGE_FAULT_INJECTING_MAP_STORE_H_
 #define SKIMAP_STORAGE_FAULT_INJECTING_MAP_STORE_H_
 
+#include <condition_variable>
 #include <memory>
 #include <mutex>
 
@@ -54,12 +58,50 @@ class FaultInjectingMapStore final : public MapStore {
     if (absl::Status s = Write(); !s.ok()) return s;
     return base_->FinishImport(id);
   }
+  void HoldAppends() {
+    std::lock_guard<std::mutex> lock(mu_);
+    hold_ = true;
+  }
+  void ReleaseAppends() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      hold_ = false;
+    }
+    released_.notify_all();
+  }
+  // AppendJournal calls waiting in a hold now.
+  int appends_waiting() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return waiting_;
+  }
+  // AppendJournal calls that succeeded below, and the records they carried.
+  int appends() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return appends_;
+  }
+  int appended_records() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return appended_records_;
+  }
+
   absl::StatusOr<std::vector<StoredMap>> ListMaps() override { return base_->ListMaps(); }
   absl::StatusOr<StoredMap> GetMap(const std::string& id) override { return base_->GetMap(id); }
   absl::StatusOr<uint64_t> AppendJournal(const std::string& id,
                                          const std::vector<JournalRecord>& records) override {
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      ++waiting_;
+      released_.wait(lock, [&] { return !hold_; });
+      --waiting_;
+    }
     if (absl::Status s = Write(); !s.ok()) return s;
-    return base_->AppendJournal(id, records);
+    absl::StatusOr<uint64_t> last = base_->AppendJournal(id, records);
+    if (last.ok()) {
+      std::lock_guard<std::mutex> lock(mu_);
+      ++appends_;
+      appended_records_ += static_cast<int>(records.size());
+    }
+    return last;
   }
   absl::Status ReadJournal(const std::string& id, uint64_t after, size_t limit,
                            const std::function<absl::Status(const JournalRecord&)>& fn) override {
@@ -99,8 +141,13 @@ class FaultInjectingMapStore final : public MapStore {
 
   std::mutex mu_;
   std::unique_ptr<MapStore> base_;
+  std::condition_variable released_;
   int countdown_ = 0;
   int writes_ = 0;
+  bool hold_ = false;
+  int waiting_ = 0;
+  int appends_ = 0;
+  int appended_records_ = 0;
   absl::Status error_;
 };
 

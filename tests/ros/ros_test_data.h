@@ -136,6 +136,22 @@ inline sensor_msgs::Image ColorMessage(const MmFrame& f) {
   return m;
 }
 
+// The colour as image_transport's compressed transport publishes it: JPEG at the plugin's
+// default quality (80), format "rgb8; jpeg compressed bgr8".
+inline sensor_msgs::CompressedImage CompressedColorMessage(const MmFrame& f) {
+  sensor_msgs::CompressedImage m;
+  m.header.stamp = f.stamp;
+  m.header.frame_id = kOpticalFrame;
+  m.format = "rgb8; jpeg compressed bgr8";
+  cv::Mat rgb(f.height, f.width, CV_8UC3, const_cast<uint8_t*>(f.rgb.data()));
+  cv::Mat bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  std::vector<uint8_t> jpeg;
+  cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
+  m.data = std::move(jpeg);
+  return m;
+}
+
 // The depth as image_transport's compressedDepth transport publishes it (its format as
 // ros/bag/compressed_depth.h describes it, written here with OpenCV's PNG and our RVL):
 // 16UC1 millimetres with `codec` "png" or "rvl"; with `metres`, 32FC1 as quantised

@@ -42,11 +42,16 @@ WorkQueue::~WorkQueue() {
 }
 
 bool WorkQueue::TrySubmit(std::function<void()> task) {
+  return TrySubmit(std::move(task), nullptr, nullptr);
+}
+
+bool WorkQueue::TrySubmit(std::function<void()> task, const void* kind,
+                          std::shared_ptr<void> item) {
   task = WithRequest(std::move(task));
   {
     MutexLock lock(&mu_);
     if (stopping_ || tasks_.size() >= capacity_) return false;
-    tasks_.push_back(std::move(task));
+    tasks_.push_back({std::move(task), kind, std::move(item)});
   }
   cv_.Signal();
   return true;
@@ -57,7 +62,7 @@ bool WorkQueue::Submit(std::function<void()> task) {
   {
     MutexLock lock(&mu_);
     if (stopping_) return false;
-    tasks_.push_back(std::move(task));
+    tasks_.push_back({std::move(task)});
   }
   cv_.Signal();
   return true;
@@ -68,6 +73,14 @@ size_t WorkQueue::pending() const {
   return tasks_.size();
 }
 
+std::shared_ptr<void> WorkQueue::TakeNextItem(const void* kind) {
+  MutexLock lock(&mu_);
+  if (tasks_.empty() || kind == nullptr || tasks_.front().kind != kind) return nullptr;
+  std::shared_ptr<void> item = std::move(tasks_.front().item);
+  tasks_.pop_front();
+  return item;
+}
+
 void WorkQueue::Loop() {
   for (;;) {
     std::function<void()> task;
@@ -75,7 +88,7 @@ void WorkQueue::Loop() {
       MutexLock lock(&mu_);
       while (!stopping_ && tasks_.empty()) cv_.Wait(&mu_);
       if (tasks_.empty()) return;  // stopping and drained
-      task = std::move(tasks_.front());
+      task = std::move(tasks_.front().run);
       tasks_.pop_front();
     }
     task();

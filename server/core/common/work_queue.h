@@ -8,6 +8,10 @@
 //
 // A task runs under the request (logging/request_context.h) current where it was submitted.
 //
+// A task may carry an item of a kind (any address naming it): a single-thread queue's task
+// can then take the items queued right behind it (TakeNextItem), so that a map's worker
+// handles the frames waiting behind a frame as one group (one durable journal append).
+//
 // The destructor stops accepting tasks, runs every task already queued, then joins.
 //
 // Thread safety: TrySubmit may be called from any thread, except from a task of the same
@@ -42,6 +46,9 @@ class WorkQueue {
 
   // Queues `task`; false (and `task` dropped) when the queue is full or shutting down.
   [[nodiscard]] bool TrySubmit(std::function<void()> task);
+  // The same for a task carrying `item` of `kind` (TakeNextItem).
+  [[nodiscard]] bool TrySubmit(std::function<void()> task, const void* kind,
+                               std::shared_ptr<void> item);
   // Queues `task` past the capacity (the server's own bounded work: snapshot captures,
   // journal replay); false only while shutting down.
   [[nodiscard]] bool Submit(std::function<void()> task);
@@ -51,15 +58,23 @@ class WorkQueue {
   auto Run(Fn&& fn) -> decltype(fn());
   // Tasks queued and not yet started.
   size_t pending() const;
+  // When the next queued task carries an item of `kind`: removes that task without running
+  // it and returns its item (whoever calls this does the task's work). Null otherwise.
+  std::shared_ptr<void> TakeNextItem(const void* kind);
 
  private:
+  struct Task {
+    std::function<void()> run;
+    const void* kind = nullptr;
+    std::shared_ptr<void> item;
+  };
   void Loop();
 
   const size_t capacity_;
   // skimap::Mutex (std::mutex), not absl::Mutex: Debian's Abseil is not TSan-instrumented.
   mutable Mutex mu_;
   CondVar cv_;
-  std::deque<std::function<void()>> tasks_ ABSL_GUARDED_BY(mu_);
+  std::deque<Task> tasks_ ABSL_GUARDED_BY(mu_);
   bool stopping_ ABSL_GUARDED_BY(mu_) = false;
   std::vector<std::thread> threads_;
 };

@@ -1,5 +1,7 @@
 #include "server/core/maps/frame_stages.h"
 
+#include <utility>
+
 #include "perception/free_space.h"
 
 namespace skimap::server {
@@ -7,7 +9,8 @@ namespace {
 
 // Staged additions and removals of one volume of voxel type V. A frame is built into
 // `scratch_`; a lone addition is built straight into `add_` (the ingestion hot path copies
-// nothing), anything more is merged item by item.
+// nothing), anything more is merged item by item. Seal() moves the open additions to the
+// sealed frames (their batches reused across Applies), each applied on its own.
 template <Voxel V>
 class Pending {
  public:
@@ -21,24 +24,50 @@ class Pending {
     build(&scratch_);
     target.AddItems(scratch_.items());
   }
-  WriteStats Apply(SkiMap<V>* volume, DirtyChunks* dirty, ThreadPool* pool) {
-    remove_.Finalize(pool);
-    add_.Finalize(pool);
-    MarkDirtyChunks(remove_.items(), dirty);
-    MarkDirtyChunks(add_.items(), dirty);
+  void Seal() {
+    if (sealed_count_ == sealed_.size()) sealed_.emplace_back();
+    std::swap(sealed_[sealed_count_++], add_);
+    add_.Clear();
+  }
+  WriteStats Apply(SkiMap<V>* volume, DirtyChunks* dirty, ThreadPool* pool,
+                   std::vector<WriteStats>* per_sealed) {
     WriteStats stats;
-    if (!remove_.empty()) stats += volume->Deintegrate(remove_);
-    if (!add_.empty()) stats += volume->Integrate(add_);
+    if (!remove_.empty()) {
+      remove_.Finalize(pool);
+      MarkDirtyChunks(remove_.items(), dirty);
+      stats += volume->Deintegrate(remove_);
+    }
+    if (per_sealed != nullptr && per_sealed->size() < sealed_count_) {
+      per_sealed->resize(sealed_count_);
+    }
+    for (size_t i = 0; i < sealed_count_; ++i) {
+      const WriteStats frame = IntegrateBatch(sealed_[i], volume, dirty, pool);
+      stats += frame;
+      if (per_sealed != nullptr) (*per_sealed)[i] += frame;
+    }
+    stats += IntegrateBatch(add_, volume, dirty, pool);
     Clear();
     return stats;
   }
   void Clear() {
     add_.Clear();
     remove_.Clear();
+    for (size_t i = 0; i < sealed_count_; ++i) sealed_[i].Clear();
+    sealed_count_ = 0;
   }
 
  private:
+  static WriteStats IntegrateBatch(VoxelBatch<V>& batch, SkiMap<V>* volume, DirtyChunks* dirty,
+                                   ThreadPool* pool) {
+    if (batch.empty()) return {};
+    batch.Finalize(pool);
+    MarkDirtyChunks(batch.items(), dirty);
+    return volume->Integrate(batch);
+  }
+
   VoxelBatch<V> add_, remove_, scratch_;
+  std::vector<VoxelBatch<V>> sealed_;  // the first sealed_count_ hold sealed frames
+  size_t sealed_count_ = 0;
 };
 
 class IntegrateStage final : public FrameStage {
@@ -52,8 +81,9 @@ class IntegrateStage final : public FrameStage {
     });
     return stats;
   }
-  WriteStats Apply(MapState* state) override {
-    return pending_.Apply(&state->rgb, &state->dirty_rgb, pool_);
+  void Seal() override { pending_.Seal(); }
+  WriteStats Apply(MapState* state, std::vector<WriteStats>* per_sealed) override {
+    return pending_.Apply(&state->rgb, &state->dirty_rgb, pool_, per_sealed);
   }
   void Clear() override { pending_.Clear(); }
 
@@ -77,8 +107,9 @@ class CarveStage final : public FrameStage {
     });
     return {};
   }
-  WriteStats Apply(MapState* state) override {
-    return pending_.Apply(&state->free, &state->dirty_free, pool_);
+  void Seal() override { pending_.Seal(); }
+  WriteStats Apply(MapState* state, std::vector<WriteStats>* per_sealed) override {
+    return pending_.Apply(&state->free, &state->dirty_free, pool_, per_sealed);
   }
   void Clear() override { pending_.Clear(); }
 

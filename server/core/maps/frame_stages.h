@@ -9,7 +9,10 @@
 // pose and Stage(frame, kAdd) with the new one move a frame, for any number of frames, and
 // Apply makes every staged change visible at once (a pose update never shows half done).
 // Staged contributions of several frames are merged per voxel, so what a stage holds is
-// bounded by the distinct voxels involved, not by the number of frames.
+// bounded by the distinct voxels involved, not by the number of frames (a pose update).
+// Frames appended as a group (one journal append for the frames queued behind each other)
+// are sealed one by one instead: each is applied as its own integration, in order, so the
+// volume sums exactly what applying them one at a time would (the same float additions).
 //
 // Stages today: integration into `rgb` (perception/frame_integrator.h) and, for carving
 // maps, free-space evidence into `free` (perception/free_space.h). Recognition adds its own.
@@ -37,8 +40,13 @@ class FrameStage {
   // Builds the frame's contribution with frame.pose and stages it with `sign`. Returns the
   // back-projection counts when the stage has them (zeros otherwise).
   virtual perception::IntegrationStats Stage(const perception::RgbdFrame& frame, Sign sign) = 0;
-  // Applies everything staged since the last Apply to `state`, removals first; clears it.
-  virtual WriteStats Apply(MapState* state) = 0;
+  // Ends the frame staged last: it is applied on its own, after the frames sealed before
+  // it and before anything staged after it.
+  virtual void Seal() = 0;
+  // Applies everything staged since the last Apply to `state`, removals first, then the
+  // sealed frames in order, then what is staged unsealed; clears it. `per_sealed` (may be
+  // null) gets each sealed frame's own stats added at its index (resized to fit).
+  virtual WriteStats Apply(MapState* state, std::vector<WriteStats>* per_sealed = nullptr) = 0;
   // Drops what is staged without applying it.
   virtual void Clear() = 0;
 };

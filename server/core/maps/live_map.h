@@ -11,12 +11,15 @@
 // Writes (frames, pose updates) run one at a time on the map's worker thread, fed by a
 // bounded queue: a full queue answers ResourceExhausted at once instead of buffering.
 // A submitted frame's images are decoded ahead, on Options::decoder, depth and colour at
-// once, while the worker integrates the frames before it (the ingestion pipeline, issue
-// 15); what a frame's write does and answers is the same as decoding it on the worker.
+// once, while the worker integrates the frames before it (the ingestion pipeline); what a
+// frame's write does and answers is the same as decoding it on the worker. With a store,
+// the frames queued behind the one the worker takes join it as a group: one durable journal
+// append for all of them, each frame still checked, applied (as its own integration) and
+// answered on its own (live_map_frames.cc).
 // Decoding and every stage's Stage() run outside any lock; only the stages' Apply holds the
-// snapshot lock exclusively, once per write (a pose update of any number of frames is one
-// Apply). Readers (Read, Stats) hold it shared, so every read sees a consistent snapshot
-// made of whole frames and whole pose updates.
+// snapshot lock exclusively, once per write (a pose update of any number of frames, or a
+// group of frames, is one Apply). Readers (Read, Stats) hold it shared, so every read sees a
+// consistent snapshot made of whole frames and whole pose updates.
 //
 // Recognition (maps with options.recognition.enabled; docs/recognition.md): the worker
 // hands each integrated frame to the map's MapRecognition (map_recognition.h), whose
@@ -37,6 +40,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -234,13 +238,22 @@ class LiveMap {
   // Image buffers of integrated frames, reused by the next decodes.
   perception::RgbdFrame TakeSpareFrame();
   void ReturnSpareFrame(perception::RgbdFrame frame);
+  // A frame SubmitFrame queued (live_map_frames.cc).
+  struct FrameWrite;
   // Worker thread only.
-  // `decoded_out` (may be null): the decoded frame, for recognition (maps with it only).
-  // `job` (may be null: decoded here) is the frame's decode started by SubmitFrame.
-  absl::StatusOr<v1::FrameAck> IntegrateOnWorker(
-      std::shared_ptr<const v1::Frame> frame, Source source, uint64_t position,
-      std::shared_ptr<const perception::RgbdFrame>* decoded_out = nullptr,
-      const std::shared_ptr<DecodeJob>& job = nullptr);
+  // Integrates `first` and, with a store, the frames queued right behind it, then answers
+  // each (its ack, or recognition's for the every-frame policy).
+  void WriteFramesOnWorker(std::shared_ptr<FrameWrite> first);
+  // Integrates `writes` in order and sets each one's ack (and `decoded`, for recognition,
+  // when it runs and source is kAppend). Each frame is checked and decoded on its own: a
+  // bad one gets its error and the others go on. The valid frames' records are appended to
+  // the store at once (kAppend: one durable append) before any is applied; each frame is
+  // applied as its own integration, all in one snapshot. kReplay: one frame, at `position`.
+  void IntegrateOnWorker(std::span<FrameWrite* const> writes, Source source, uint64_t position);
+  absl::StatusOr<v1::FrameAck> IntegrateOnWorker(std::shared_ptr<const v1::Frame> frame,
+                                                 Source source, uint64_t position);
+  v1::FrameAck MakeAck(uint64_t sequence, const perception::IntegrationStats& stats,
+                       const WriteStats& written) const;
   absl::StatusOr<v1::UpdatePosesResponse> UpdatePosesOnWorker(const v1::UpdatePosesRequest& request,
                                                               Source source, uint64_t position);
   // `d` as a protobuf Duration (the timings of acks and responses).
@@ -252,18 +265,20 @@ class LiveMap {
   std::unique_ptr<Capture> CaptureOnWorker();
   absl::Status SnapshotLocked();  // REQUIRES: snapshot_run_mu_ held
   absl::Status LoadSnapshotOnWorker();
-  // Appends one record to the store; returns its position (0 without a store). The
-  // store's error otherwise, prefixed "journal: ": the write must then not be applied or
-  // acknowledged.
-  absl::StatusOr<uint64_t> Journal(storage::JournalRecord::Kind kind, const std::string& bytes);
+  // Appends `records` to the store in one durable append; returns the last one's position
+  // (0 without a store). The store's error otherwise, prefixed "journal: ": the writes must
+  // then not be applied or acknowledged.
+  absl::StatusOr<uint64_t> Journal(std::vector<storage::JournalRecord> records);
   // Stages `frame` (with frame.pose) in every stage; the first stage's counts.
   perception::IntegrationStats StageFrame(const perception::RgbdFrame& frame,
                                           FrameStage::Sign sign);
   // Applies every stage's staged changes under the exclusive lock; `frames_added` is added
   // to the frame counter and `position` becomes the state's journal position, in the same
-  // snapshot. `also` (may be null) runs under the same lock.
+  // snapshot. `also` (may be null) runs under the same lock. `per_sealed` (may be null):
+  // each sealed frame's stats (FrameStage::Apply).
   WriteStats ApplyStages(uint64_t frames_added, uint64_t position,
-                         const std::function<void(MapState&)>& also = nullptr);
+                         const std::function<void(MapState&)>& also = nullptr,
+                         std::vector<WriteStats>* per_sealed = nullptr);
 
   void NotifyWatchers();
   void NotifyChangeWatchers();

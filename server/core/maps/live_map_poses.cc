@@ -62,7 +62,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
   }
   if (source == Source::kAppend) {
     absl::StatusOr<uint64_t> appended =
-        Journal(storage::JournalRecord::kPoseUpdate, request.SerializeAsString());
+        Journal({{storage::JournalRecord::kPoseUpdate, request.SerializeAsString()}});
     if (!appended.ok()) return appended.status();
     position = *appended;
   }
