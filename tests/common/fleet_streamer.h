@@ -13,6 +13,7 @@
 #ifndef TESTS_COMMON_FLEET_STREAMER_H_
 #define TESTS_COMMON_FLEET_STREAMER_H_
 
+#include <algorithm>
 #include <atomic>
 #include <functional>
 #include <map>
@@ -44,12 +45,16 @@ class FleetStreamer {
   void StartAt(size_t i) { current_ = nodes_[i % nodes_.size()]; }
 
   // Sends frames [from, end) until each is confirmed, or `deadline` (DeadlineExceeded), or
-  // an ack with an error a retry cannot fix (returned, naming the frame).
+  // an ack with an error a retry cannot fix (returned, naming the frame). After Stop, sends
+  // no new frame and returns once every frame it sent is confirmed: the map then holds
+  // frames [from, from + confirmed()).
   absl::Status Run(uint64_t from, uint64_t end, absl::Time deadline) {
     if (current_.empty()) current_ = nodes_[0];
     uint64_t next = from;
     std::set<uint64_t> confirmed;
     while (next < end) {
+      if (stop_requested_) end = std::min(end, std::max(next, resent_below_));
+      if (next >= end) break;
       if (absl::Now() > deadline) {
         return absl::DeadlineExceededError(absl::StrCat(map_, ": frame ", next, " unconfirmed"));
       }
@@ -71,9 +76,14 @@ class FleetStreamer {
     return absl::OkStatus();
   }
 
+  // Ends Run early (from any thread): see Run.
+  void Stop() { stop_requested_ = true; }
   uint64_t failovers() const { return failovers_.load(); }
-  // Frames of the running (or last) Run confirmed so far, from its first on, in order.
+  // Frames of the running (or last) Run confirmed so far, from its first on, in order
+  // (counted as each stream of it ends).
   uint64_t confirmed() const { return confirmed_.load(); }
+  // OK acks so far, counted as they arrive.
+  uint64_t acked() const { return acked_.load(); }
 
  private:
   struct Round {
@@ -109,6 +119,7 @@ class FleetStreamer {
       std::lock_guard<std::mutex> lock(mu);
       const absl::StatusCode code = static_cast<absl::StatusCode>(ack.code());
       if (code == absl::StatusCode::kOk) {
+        ++acked_;
         round->confirmed.push_back(ack.sequence());
         if (on_ack_) on_ack_(ack.sequence(), absl::Now() - sent_at[ack.sequence()]);
         return;
@@ -130,7 +141,7 @@ class FleetStreamer {
     };
     std::unique_ptr<client::FrameStream> stream = Client(current_).OpenFrameStream(options);
     uint64_t s = from;
-    for (; s < end && !stop; ++s) {
+    for (; s < end && !stop && !stop_requested_; ++s) {
       const v1::Frame frame = make_(s);
       {
         std::lock_guard<std::mutex> lock(mu);
@@ -158,6 +169,8 @@ class FleetStreamer {
   std::map<std::string, std::unique_ptr<client::MapClient>> clients_;
   std::atomic<uint64_t> failovers_{0};
   std::atomic<uint64_t> confirmed_{0};
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<uint64_t> acked_{0};
 };
 
 }  // namespace skimap::testing
