@@ -11,7 +11,9 @@
 //     own subscriber queues overflowing: published - offered).
 // Then the same frames as ROS 1 bags through `skimap stream BAG`, colour raw and as JPEG
 // (frames/s from the CLI's summary, the CPU per frame of the CLI and of skimapd). Every run writes
-// into its own fresh 2 cm map; the maps' frame counts are checked against the acknowledgements.
+// into its own fresh 2 cm map. Exits 1 unless each bag's map holds every frame, the two bags'
+// maps hold the same voxels with the same weights (only colour differs), and the bridge's
+// 30 Hz map equals the raw bag's voxel for voxel.
 //
 // Usage: ros_bridge_bench [--frames=300] [--rate=30] [--keep_dir] [--bags_only] [--skimapd=PATH]
 //                         [--scene=DIR]
@@ -236,6 +238,8 @@ int main(int argc, char** argv) {
 
   // The same frames as ROS 1 bags, through the CLI: raw colour (rgb8, as the bridge got
   // it), then colour as image_transport's JPEG (what robots usually record).
+  // Each bag's map must hold every frame (checked below).
+  bool bags_whole = true;
   const auto stream_bag = [&](const std::string& name, bool jpeg_color) {
     const std::string bag_path = (dir / (name + ".bag")).string();
     {
@@ -272,6 +276,7 @@ int main(int argc, char** argv) {
         "%.1f ms; map frames %llu\n",
         jpeg_color ? "JPEG" : "raw", cli_fps, 1e3 * cli_cpu / count, 1e3 * skimapd_cpu / count,
         (unsigned long long)(cli_map.ok() ? cli_map->stats().frames() : 0));
+    bags_whole = bags_whole && cli_map.ok() && cli_map->stats().frames() == uint64_t(count);
   };
   stream_bag("cli", false);
   stream_bag("cli_jpeg", true);
@@ -291,12 +296,25 @@ int main(int argc, char** argv) {
     }
     return out;
   };
-  bool same = true;
+  // The two bags differ only in how colour is coded (JPEG is lossy): the same voxels with
+  // the same weights.
+  const auto geometry = [](const auto& with_colour) {
+    std::set<std::tuple<double, double, double, float>> out;
+    for (const auto& [x, y, z, w, rgb] : with_colour) out.insert({x, y, z, w});
+    return out;
+  };
+  const auto raw_voxels = voxels("cli");
+  bool same =
+      bags_whole && !raw_voxels.empty() && geometry(raw_voxels) == geometry(voxels("cli_jpeg"));
+  std::printf("skimap stream BAG, raw and JPEG colour: %s voxel geometry (%zu), %s\n",
+              same ? "the same" : "DIFFERENT", raw_voxels.size(),
+              bags_whole ? "every frame in both maps" : "FRAMES MISSING");
   if (!bags_only) {
     const auto bridge_voxels = voxels(absl::StrCat("bridge", int(rate)));
-    same = !bridge_voxels.empty() && bridge_voxels == voxels("cli");
+    const bool bridge_same = !bridge_voxels.empty() && bridge_voxels == raw_voxels;
     std::printf("bridge at %.0f Hz and skimap stream BAG: %s voxels (%zu)\n", rate,
-                same ? "the same" : "DIFFERENT", bridge_voxels.size());
+                bridge_same ? "the same" : "DIFFERENT", bridge_voxels.size());
+    same = same && bridge_same;
   }
 
   spinner.stop();

@@ -1,28 +1,19 @@
 #include "server/core/maps/live_map.h"
 
-#include <chrono>
 #include <cstdio>
-#include <future>
 #include <limits>
 #include <map>
 #include <random>
 #include <type_traits>
 #include <utility>
 
-#include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
 #include "perception/frame_integrator.h"
 #include "server/core/logging/log.h"
-#include "server/core/maps/frame_decode.h"
 #include "server/core/transfer/chunk_codec.h"
 #include "server/core/transfer/map_meta.h"
 
 namespace skimap::server {
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-}  // namespace
 
 LiveMap::LiveMap(std::string id, const Options& options)
     : id_(std::move(id)),

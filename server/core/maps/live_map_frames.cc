@@ -117,17 +117,16 @@ void LiveMap::SubmitFrame(std::shared_ptr<const v1::Frame> frame, FrameDone done
   write->frame = frame;
   write->done = std::make_shared<FrameDone>(std::move(done));
   if (options_.decoder != nullptr) write->job = StartDecode(frame);
-  std::shared_ptr<DecodeJob> job = write->job;
-  std::shared_ptr<FrameDone> shared_done = write->done;
+  // The worker never changes write->job or write->done: both stay readable here.
   const bool queued =
       queue_.TrySubmit([this, write] { WriteFramesOnWorker(write); }, &kFrameWriteKind, write);
   if (!queued) {
-    (*shared_done)(absl::ResourceExhaustedError(
+    (*write->done)(absl::ResourceExhaustedError(
         absl::StrCat("map ", MapName(id_), ": write queue full (", options_.queue_capacity,
                      " pending, skimapd --queue_capacity); retry later")));
     return;
   }
-  if (job != nullptr) StartDecodeParts(job);
+  if (write->job != nullptr) StartDecodeParts(write->job);
 }
 
 void LiveMap::WriteFramesOnWorker(std::shared_ptr<FrameWrite> first) {

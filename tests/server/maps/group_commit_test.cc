@@ -149,9 +149,9 @@ TEST_F(GroupCommitTest, FramesQueuedBehindAnAppendShareOneAndKeepTheirOwnErrors)
   {
     server::MapService service(Options());
     ASSERT_TRUE(service.Recover().ok());
-    CreateCarvingMap(service, "g");
+    ASSERT_NO_FATAL_FAILURE(CreateCarvingMap(service, "g"));
     Answers answers;
-    HoldWorkerWith(service, Frame("g", 1), answers);
+    ASSERT_NO_FATAL_FAILURE(HoldWorkerWith(service, Frame("g", 1), answers));
     auto duplicate = Frame("g", 2);
     auto bad_depth = Frame("g", 5);
     bad_depth->set_depth_encoding(v1::DEPTH_ENCODING_ZSTD);
@@ -186,8 +186,9 @@ TEST_F(GroupCommitTest, FramesQueuedBehindAnAppendShareOneAndKeepTheirOwnErrors)
     EXPECT_EQ(Stats(service, "g").journal_position(), 5u);
 
     // The same frames one at a time (each its own append) give the same map, voxel by voxel.
-    CreateCarvingMap(service, "one_by_one");
-    for (uint64_t seq : {1, 2, 3, 6, 7}) Integrate(service, Frame("one_by_one", seq));
+    ASSERT_NO_FATAL_FAILURE(CreateCarvingMap(service, "one_by_one"));
+    for (uint64_t seq : {1, 2, 3, 6, 7})
+      ASSERT_NO_FATAL_FAILURE(Integrate(service, Frame("one_by_one", seq)));
     EXPECT_EQ(store_->appends(), 7);
     before_restart = Content(service, "g");
     EXPECT_EQ(before_restart, Content(service, "one_by_one"));
@@ -201,9 +202,9 @@ TEST_F(GroupCommitTest, FramesQueuedBehindAnAppendShareOneAndKeepTheirOwnErrors)
 TEST_F(GroupCommitTest, AFailedGroupAppendFailsEveryFrameOfItAndAppliesNone) {
   server::MapService service(Options());
   ASSERT_TRUE(service.Recover().ok());
-  CreateCarvingMap(service, "g");
+  ASSERT_NO_FATAL_FAILURE(CreateCarvingMap(service, "g"));
   Answers answers;
-  HoldWorkerWith(service, Frame("g", 1), answers);
+  ASSERT_NO_FATAL_FAILURE(HoldWorkerWith(service, Frame("g", 1), answers));
   for (uint64_t seq : {2, 3, 4}) service.IntegrateFrame(Frame("g", seq), answers.Callback(seq));
   // Frame 1's append is the first write from now; the group's the second.
   store_->FailWriteNumber(2, absl::ResourceExhaustedError("disk full"));
@@ -218,11 +219,11 @@ TEST_F(GroupCommitTest, AFailedGroupAppendFailsEveryFrameOfItAndAppliesNone) {
   }
   EXPECT_EQ(Stats(service, "g").frames(), 1u);
   // Nothing of the failed group is in the map: it equals frame 1 alone.
-  CreateCarvingMap(service, "first");
-  Integrate(service, Frame("first", 1));
+  ASSERT_NO_FATAL_FAILURE(CreateCarvingMap(service, "first"));
+  ASSERT_NO_FATAL_FAILURE(Integrate(service, Frame("first", 1)));
   EXPECT_EQ(Content(service, "g"), Content(service, "first"));
   // The client's retry of the failed frames succeeds.
-  for (uint64_t seq : {2, 3, 4}) Integrate(service, Frame("g", seq));
+  for (uint64_t seq : {2, 3, 4}) ASSERT_NO_FATAL_FAILURE(Integrate(service, Frame("g", seq)));
   EXPECT_EQ(Stats(service, "g").frames(), 4u);
 }
 
