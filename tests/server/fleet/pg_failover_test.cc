@@ -278,7 +278,11 @@ TEST_F(PgFailoverTest, APausedPrimaryIsReplacedAndItsWritesAreRefused) {
   const std::vector<double> seconds = acks.Seconds();
   ASSERT_EQ(seconds.size(), 1u);
   std::printf("pg_failover_test: primary paused; first new ack after %.2f s\n", seconds[0]);
-  EXPECT_LT(seconds[0], 30.0);
+  // About 10 s alone (2 s to call the primary unhealthy, 3 s of demotion timeout, the
+  // statement deadline, the promotion); 32.7 s in CI's release pass on 2026-12-02, beside
+  // the kill test's cluster and the compute-bound tests: the bound is for that loaded
+  // machine, as the kill test's.
+  EXPECT_LT(seconds[0], 60.0);
   absl::SleepFor(absl::Seconds(2));
   ASSERT_TRUE(cluster_->Resume(*old).ok());
   // Straight after resuming, the old primary still takes connections: its commit waits
