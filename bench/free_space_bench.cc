@@ -39,6 +39,7 @@
 #include "bench/samples.h"
 #include "bench/ycbv_frames.h"
 #include "server/core/maps/frame_stages.h"
+#include "server/core/maps/free_space_grid.h"
 #include "server/core/maps/map_config.h"
 #include "server/core/maps/map_state.h"
 
@@ -159,9 +160,17 @@ void Run(const std::string& name, const std::vector<RealFrame>& real, ThreadPool
         integrate_sum += Ms(t1 - t0);
         carve_sum += Ms(t2 - t1);
       }
-      free_columns = state.free.size();
+      free_columns = server::CountFreeColumns(state.free);
       if (rep == 0) {
-        state.free.ForEach([&](const VoxelKey& k, const WeightVoxel&) { ours.insert({k.x, k.y}); });
+        state.free.ForEach([&](const VoxelKey& k, const FreeColumnsVoxel& block) {
+          for (int32_t dx = 0; dx < FreeColumnsVoxel::kSide; ++dx) {
+            for (int32_t dy = 0; dy < FreeColumnsVoxel::kSide; ++dy) {
+              if (block.counts[FreeColumnsVoxel::Index(k.x + dx, k.y + dy)] > 0) {
+                ours.insert({k.x + dx, k.y + dy});
+              }
+            }
+          }
+        });
       }
     }
     std::printf("| %g cm | %.2f | %.2f | %.3f | %zu |", res * 100, integrate.Median(),

@@ -76,6 +76,17 @@
 #include "bench/open3d_peer.h"
 #endif
 
+namespace {
+// Open3D's OpenMP threads (its rows only print with the peer built in).
+int PeerThreads() {
+#ifdef SKIMAP_BENCH_OPEN3D
+  return omp_get_num_procs();
+#else
+  return 0;
+#endif
+}
+}  // namespace
+
 ABSL_FLAG(std::string, ycbv, SKIMAP_BENCH_YCBV_DIR, "the ycbv-0000 BOP dataset root");
 ABSL_FLAG(int, reps, 5, "samples per frame and variant");
 ABSL_FLAG(std::string, resolutions, "0.01,0.02,0.05", "voxel edges, metres");
@@ -343,8 +354,7 @@ void Run() {
         std::printf(
             "| Open3D ScalableTSDFVolume::Integrate (decoded images), %d OpenMP threads | "
             "%.2f | %.2f | - | %s |\n",
-            omp_get_num_procs(), open3d.Median(), open3d.Quantile(0.9),
-            ratio(open3d.Median()).c_str());
+            PeerThreads(), open3d.Median(), open3d.Quantile(0.9), ratio(open3d.Median()).c_str());
         std::printf(
             "| Open3D ScalableTSDFVolume::Integrate (decoded images), 1 thread | %.2f | "
             "%.2f | - | %s |\n",
@@ -406,7 +416,7 @@ void Run() {
                   peer > 0 ? absl::StrFormat("%.2f", warm_ours.Median() / peer).c_str() : "-");
       if (peer > 0) {
         std::printf("| Open3D, %d OpenMP threads (decoded images) | %.2f | %.2f | %.2f |\n",
-                    omp_get_num_procs(), warm_o3d.Median(), warm_o3d.Quantile(0.9),
+                    PeerThreads(), warm_o3d.Median(), warm_o3d.Quantile(0.9),
                     warm_o3d.Median() / peer);
         std::printf("| Open3D, 1 thread (decoded images) | %.2f | %.2f | %.2f |\n",
                     warm_o3d_one.Median(), warm_o3d_one.Quantile(0.9),
@@ -475,7 +485,7 @@ void Run() {
     }
     if (o3d_fps > 0) {
       std::printf("| Open3D (decoded images), the faster of %d threads and 1 | %.1f | 1 |\n",
-                  omp_get_num_procs(), o3d_fps);
+                  PeerThreads(), o3d_fps);
     }
     std::fflush(stdout);
   }

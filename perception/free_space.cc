@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -178,8 +179,8 @@ absl::Status ValidateFreeSpaceOptions(const FreeSpaceOptions& o) {
 
 FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
                                    const IntegrationOptions& integration,
-                                   const FreeSpaceOptions& options, VoxelBatch<WeightVoxel>* batch,
-                                   ThreadPool* pool) {
+                                   const FreeSpaceOptions& options,
+                                   VoxelBatch<FreeColumnsVoxel>* batch, ThreadPool* pool) {
   batch->Clear();
   FreeSpaceStats stats;
   const PinholeCamera& cam = frame.camera;
@@ -261,7 +262,8 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   const bool mark_camera =
       camera_keyed && (under_camera || std::any_of(rays.begin(), rays.end(),
                                                    [](const FanRay& r) { return r.r0 == 0; }));
-  using Item = VoxelBatch<WeightVoxel>::Item;
+  using Item = VoxelBatch<FreeColumnsVoxel>::Item;
+  constexpr int32_t kSide = FreeColumnsVoxel::kSide;
   std::vector<std::vector<Item>> item_pieces(pieces);
   if (!rays.empty()) {
     const Fan fan = MakeFan(rays, res, 2.5 * stride / std::min(cam.fx, cam.fy), from_camera);
@@ -284,59 +286,133 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
         grid.AxisToKey(lo_y - res, grid.origin().y, &min_y) &&
         grid.AxisToKey(hi_x + res, grid.origin().x, &max_x) &&
         grid.AxisToKey(hi_y + res, grid.origin().y, &max_y)) {
-      // Pass 3: every column whose centre lies in the fan, x major (so the keys are
-      // sorted). A fan that leaves the key range carves nothing.
+      // Pass 3: every column whose centre lies in the fan, a stripe of kSide x keys (one
+      // block column) at a time, its blocks emitted in y order (so the keys are sorted). A
+      // fan that leaves the key range carves nothing.
       const double max_r2 = fan.max_r * fan.max_r;
       const size_t bins = fan.bins();
-      const size_t columns = size_t(int64_t{max_x} - min_x + 1);
-      ForPieces(pool, columns, pieces, [&](size_t piece, size_t first, size_t last) {
+      const int32_t block_x0 = FreeColumnsVoxel::BlockKey(min_x, 0).x;
+      const int32_t block_y0 = FreeColumnsVoxel::BlockKey(0, min_y).y;
+      const size_t stripes = size_t((int64_t{max_x} - block_x0) / kSide + 1);
+      const size_t block_rows = size_t((int64_t{max_y} - block_y0) / kSide + 1);
+      // A fan narrower than a half-turn lies in a convex wedge from the camera: its edges
+      // (a bin wider on each side, for rounding) bound each column's ys, so only cells the
+      // wedge can hold are tested. A wider fan is bounded by its reach only.
+      const double a1 = reference + fan.min_angle - fan.bin_width;
+      const double a2 = reference + fan.min_angle + double(bins + 1) * fan.bin_width;
+      const bool wedge = a2 - a1 < kPi - 0.01;
+      const double d1x = std::cos(a1), d1y = std::sin(a1), d2x = std::cos(a2), d2y = std::sin(a2);
+      // The intervals' squared radii: cells compare their squared distance (no root).
+      std::vector<Interval> squared(fan.intervals.size());
+      for (size_t i = 0; i < squared.size(); ++i) {
+        squared[i] = {fan.intervals[i].r0 * fan.intervals[i].r0,
+                      fan.intervals[i].r1 * fan.intervals[i].r1};
+      }
+      ForPieces(pool, stripes, pieces, [&](size_t piece, size_t first, size_t last) {
         std::vector<Item>& out = item_pieces[piece];
-        for (int32_t kx = min_x + int32_t(first); kx < min_x + int32_t(last); ++kx) {
-          const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
-          if (dx * dx > max_r2) continue;
-          // Only the ys within max_r of the camera (a cell more at each end for rounding).
-          const double reach = std::sqrt(max_r2 - dx * dx);
-          int32_t y0 = min_y, y1 = max_y;
-          if (int32_t k; grid.AxisToKey(o.y() - reach, grid.origin().y, &k)) {
-            y0 = std::max(y0, k - 1);
-          }
-          if (int32_t k; grid.AxisToKey(o.y() + reach, grid.origin().y, &k)) {
-            y1 = std::min(y1, k + 1);
-          }
-          for (int32_t ky = y0; ky <= y1; ++ky) {
-            const double dy = grid.AxisCenter(ky, grid.origin().y) - o.y();
-            const double r2 = dx * dx + dy * dy;
-            if (r2 > max_r2) continue;
-            const double a = Wrap(FastAtan2(dy, dx) - reference) - fan.min_angle;
-            if (a < 0) continue;
-            const size_t b = size_t(a / fan.bin_width);
-            if (b >= bins) continue;
-            const double r = std::sqrt(r2);
-            for (const Interval& in : fan.Of(b)) {
-              if (r >= in.r0 && r <= in.r1) {
-                out.push_back({{kx, ky, 0}, WeightVoxel{1}});
-                break;
+        std::vector<FreeColumnsVoxel> row(block_rows);  // the stripe's blocks, by y
+        for (size_t stripe = first; stripe < last; ++stripe) {
+          const int32_t bx = block_x0 + int32_t(stripe) * kSide;
+          size_t used_lo = block_rows, used_hi = 0;
+          for (int32_t kx = std::max(bx, min_x); kx <= std::min(bx + kSide - 1, max_x); ++kx) {
+            const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
+            if (dx * dx > max_r2) continue;
+            // Only the ys within max_r of the camera (a cell more at each end for rounding).
+            const double reach = std::sqrt(max_r2 - dx * dx);
+            int32_t y0 = min_y, y1 = max_y;
+            if (int32_t k; grid.AxisToKey(o.y() - reach, grid.origin().y, &k)) {
+              y0 = std::max(y0, k - 1);
+            }
+            if (int32_t k; grid.AxisToKey(o.y() + reach, grid.origin().y, &k)) {
+              y1 = std::min(y1, k + 1);
+            }
+            if (wedge) {
+              // (dx, dy) is in the wedge when d1 x p >= 0 and p x d2 >= 0: linear in dy.
+              double lo = -reach, hi = reach;
+              if (std::abs(d1x) > 1e-9) {
+                (d1x > 0 ? lo : hi) =
+                    d1x > 0 ? std::max(lo, d1y * dx / d1x) : std::min(hi, d1y * dx / d1x);
+              }
+              if (std::abs(d2x) > 1e-9) {
+                (d2x > 0 ? hi : lo) =
+                    d2x > 0 ? std::min(hi, d2y * dx / d2x) : std::max(lo, d2y * dx / d2x);
+              }
+              if (lo > hi + res) continue;
+              if (int32_t k; grid.AxisToKey(o.y() + lo, grid.origin().y, &k)) {
+                y0 = std::max(y0, k - 1);
+              }
+              if (int32_t k; grid.AxisToKey(o.y() + hi, grid.origin().y, &k)) {
+                y1 = std::min(y1, k + 1);
               }
             }
+            for (int32_t ky = y0; ky <= y1; ++ky) {
+              const double dy = grid.AxisCenter(ky, grid.origin().y) - o.y();
+              const double r2 = dx * dx + dy * dy;
+              if (r2 > max_r2) continue;
+              const double a = Wrap(FastAtan2(dy, dx) - reference) - fan.min_angle;
+              if (a < 0) continue;
+              const size_t b = size_t(a / fan.bin_width);
+              if (b >= bins) continue;
+              for (uint32_t j = fan.first[b]; j < fan.first[b + 1]; ++j) {
+                if (r2 >= squared[j].r0 && r2 <= squared[j].r1) {
+                  const size_t i = size_t(ky - block_y0) / kSide;
+                  row[i].counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
+                  used_lo = std::min(used_lo, i);
+                  used_hi = std::max(used_hi, i);
+                  break;
+                }
+              }
+            }
+          }
+          for (size_t i = used_lo; i <= used_hi && i < block_rows; ++i) {
+            if (row[i].IsEmpty()) continue;
+            out.push_back({{bx, block_y0 + int32_t(i) * kSide, 0}, row[i]});
+            row[i] = {};
           }
         }
       });
     }
   }
-  std::vector<Item> items;
-  for (const std::vector<Item>& p : item_pieces) items.insert(items.end(), p.begin(), p.end());
+  // The camera's own column: into its block when the fan has it, else a block of its own.
+  std::optional<Item> camera_block;
   if (mark_camera) {
-    const VoxelKey k{camera_x, camera_y, 0};
-    const auto at =
-        std::lower_bound(items.begin(), items.end(), k, [](const Item& a, const VoxelKey& b) {
-          return a.key.x != b.x ? a.key.x < b.x : a.key.y < b.y;
-        });
-    if (at == items.end() || at->key.x != k.x || at->key.y != k.y) {
-      items.insert(at, {k, WeightVoxel{1}});
+    const VoxelKey k = FreeColumnsVoxel::BlockKey(camera_x, camera_y);
+    const int slot = FreeColumnsVoxel::Index(camera_x, camera_y);
+    bool merged = false;
+    for (std::vector<Item>& p : item_pieces) {
+      const auto at = std::lower_bound(p.begin(), p.end(), k,
+                                       [](const Item& a, const VoxelKey& b) { return a.key < b; });
+      if (at != p.end() && at->key == k) {
+        at->data.counts[slot] = 1;
+        merged = true;
+        break;
+      }
+    }
+    if (!merged) {
+      camera_block = Item{k, {}};
+      camera_block->data.counts[slot] = 1;
     }
   }
-  stats.columns = items.size();
-  batch->AssignSorted(items);
+  // The pieces in order (their keys ascend), the camera's block where its key sorts.
+  size_t total = camera_block ? 1 : 0;
+  for (const std::vector<Item>& p : item_pieces) total += p.size();
+  batch->Reserve(total);
+  for (const std::vector<Item>& p : item_pieces) {
+    std::span<const Item> rest(p);
+    if (camera_block) {
+      const auto at = std::lower_bound(rest.begin(), rest.end(), camera_block->key,
+                                       [](const Item& a, const VoxelKey& b) { return a.key < b; });
+      if (at != rest.end()) {
+        batch->AppendSorted(rest.first(size_t(at - rest.begin())));
+        batch->AppendSorted({&*camera_block, 1});
+        camera_block.reset();
+        rest = rest.subspan(size_t(at - rest.begin()));
+      }
+    }
+    batch->AppendSorted(rest);
+  }
+  if (camera_block) batch->AppendSorted({&*camera_block, 1});
+  for (const Item& item : batch->items()) stats.columns += size_t(item.data.Columns());
   return stats;
 }
 

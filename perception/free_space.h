@@ -1,7 +1,7 @@
 // Free-space carving for the 2D occupancy grid: the (x, y) columns the depth rays swept
 // inside the grid's z band, before they hit a surface, are free.
 //
-//   VoxelBatch<WeightVoxel> free;
+//   VoxelBatch<FreeColumnsVoxel> free;
 //   BuildFreeSpaceBatch(frame, free_map.grid(), integration, {.min_z = 0.05, .max_z = 1.5},
 //                       &free);
 //   free_map.Integrate(free);      // free_map.Deintegrate(free) undoes it exactly
@@ -15,8 +15,9 @@
 // (2.5 * pixel_stride / f radians) apart gets the intersection of theirs, so the wedge
 // between neighbouring rays is free up to the nearer hit, and a wider hole of missing depth
 // carves nothing. Every column whose centre lies in the fan (and the camera's own column,
-// when a ray starts there) gets WeightVoxel(1) at z key 0: the free volume is a single
-// layer whose weight counts the frames that saw through a column's band. Pixels without
+// when a ray starts there) gets a count of 1 in its 4 × 4 block's FreeColumnsVoxel
+// (skimap/free_columns_voxel.h): the free volume is a single layer of blocks whose counts
+// are the frames that saw through each column's band. Pixels without
 // depth carve nothing (no return is no evidence). Deterministic, like BuildFrameBatch, so
 // pose updates can subtract a frame's free evidence exactly. Cost: one pass over the rays
 // and one over the fan's columns (bench/free_space_bench.cc).
@@ -31,8 +32,8 @@
 #include "base/thread_pool.h"
 #include "perception/frame_integrator.h"
 #include "perception/rgbd_frame.h"
+#include "skimap/free_columns_voxel.h"
 #include "skimap/grid.h"
-#include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
 
 namespace skimap::perception {
@@ -46,7 +47,7 @@ struct FreeSpaceOptions {
 struct FreeSpaceStats {
   size_t rays = 0;     // rays whose part reaches into the slab
   size_t columns = 0;  // columns in the frame's fan (and the camera's own, when a ray starts
-                       // there): the batch's items
+                       // there), held by the batch's blocks
 };
 
 // InvalidArgument naming the bad option ("carve_pixel_stride", "band").
@@ -58,8 +59,8 @@ absl::Status ValidateFreeSpaceOptions(const FreeSpaceOptions& options);
 // ValidateFreeSpaceOptions(options) are OK.
 FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
                                    const IntegrationOptions& integration,
-                                   const FreeSpaceOptions& options, VoxelBatch<WeightVoxel>* batch,
-                                   ThreadPool* pool = nullptr);
+                                   const FreeSpaceOptions& options,
+                                   VoxelBatch<FreeColumnsVoxel>* batch, ThreadPool* pool = nullptr);
 
 }  // namespace skimap::perception
 

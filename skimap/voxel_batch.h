@@ -155,6 +155,16 @@ class VoxelBatch {
     n_ = items.size();
   }
 
+  // Appends `items` to a finalized batch, which stays finalized.
+  // REQUIRES: finalized(); keys strictly increasing in (x, y, z) order, the first one after
+  // the batch's last, every component in [kMinKey, kMaxKey].
+  void AppendSorted(std::span<const Item> items) {
+    if (items.empty()) return;
+    Reserve(n_ + items.size());
+    std::copy(items.begin(), items.end(), storage_.begin() + n_);
+    n_ += items.size();
+  }
+
   // Sorts the items by key and merges duplicates, on the pool's threads if given. Cheap
   // when already finalized.
   void Finalize(ThreadPool* pool = nullptr);

@@ -1,7 +1,7 @@
 // Fuzz target: snapshot chunk blobs (server/core/transfer/chunk_codec.h) as a map load reads them:
 // voxel chunks of every voxel type and frame-index chunks (server/core/maps/frame_index.h).
 //
-// Input: u8 control (low bits: 0-5 a voxel type (voxel_types.h), 6 the frame index;
+// Input: u8 control (low bits: 0-6 a voxel type (voxel_types.h), 7 the frame index;
 // bit 7: recompute the trailing CRC first), then the blob. A voxel chunk that decodes must
 // hold keys inside its chunk, and encode back to a blob that decodes to the same voxels.
 #include <cstdint>

@@ -17,6 +17,7 @@
 #include "server/core/transfer/chunk_codec.h"
 #include "server/core/transfer/map_export.h"
 #include "server/http/rest_messages.h"
+#include "skimap/free_columns_voxel.h"
 #include "skimap/hypotheses_voxel.h"
 #include "skimap/label_voxel.h"
 #include "skimap/serialization.h"
@@ -196,7 +197,18 @@ void ChunkSeeds() {
     pose.translation = {0.1 * double(s - 4096), 0, 0};
     index.Add(s, {.position = s, .record_bytes = 1000, .pose = pose});
   }
-  Write("chunk_codec", "frame_index", Byte(6) + index.EncodeBucket(1));
+  Write("chunk_codec", "frame_index", Byte(7) + index.EncodeBucket(1));
+  // The free volume's blocks, and a chunk of the per-column volume they replaced.
+  std::vector<VoxelBatch<FreeColumnsVoxel>::Item> blocks;
+  for (int i = 0; i < 6; ++i) {
+    FreeColumnsVoxel block;
+    block.counts[size_t(i)] = uint32_t(1 + i);
+    block.counts[15] = 3;
+    blocks.push_back({{-64 + 4 * i, 96 + 4 * (i % 2), 0}, block});
+  }
+  Write("chunk_codec", "free_columns",
+        Byte(5) + server::EncodeVoxelChunk<FreeColumnsVoxel>(c, blocks));
+  Write("chunk_codec", "free_legacy", Byte(5) + server::EncodeVoxelChunk<WeightVoxel>(c, weights));
 }
 
 void SkimapFileSeeds() {

@@ -7,13 +7,14 @@
 #define TESTS_FUZZ_VOXEL_TYPES_H_
 
 #include "perception/objects/descriptor_voxel.h"
+#include "skimap/free_columns_voxel.h"
 #include "skimap/hypotheses_voxel.h"
 #include "skimap/label_voxel.h"
 #include "skimap/voxel.h"
 
 namespace skimap::fuzz {
 
-inline constexpr int kVoxelTypes = 6;
+inline constexpr int kVoxelTypes = 7;
 
 template <class Fn>
 void VisitVoxelType(int i, Fn&& fn) {
@@ -28,6 +29,8 @@ void VisitVoxelType(int i, Fn&& fn) {
       return fn(HypothesesVoxel{});
     case 4:
       return fn(InstancesVoxel{});
+    case 5:
+      return fn(FreeColumnsVoxel{});
     default:
       return fn(objects::DescriptorVoxel{});
   }

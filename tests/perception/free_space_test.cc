@@ -77,16 +77,27 @@ RgbdFrame Frame(const Eigen::Isometry3d& pose, const SceneBox& box, const Synthe
 std::set<std::pair<int32_t, int32_t>> Carve(const RgbdFrame& f, const FreeSpaceOptions& o = {},
                                             ThreadPool* pool = nullptr,
                                             FreeSpaceStats* stats = nullptr) {
-  VoxelBatch<WeightVoxel> batch;
+  VoxelBatch<FreeColumnsVoxel> batch;
   const FreeSpaceStats s = BuildFreeSpaceBatch(f, Grid(0.05), {}, o, &batch, pool);
   if (stats != nullptr) *stats = s;
   std::set<std::pair<int32_t, int32_t>> out;
-  for (const auto& item : batch.items()) {
+  const auto items = batch.items();
+  for (size_t i = 0; i < items.size(); ++i) {
+    const auto& item = items[i];
     EXPECT_EQ(item.key.z, 0);
-    EXPECT_EQ(item.data.weight, 1.0f);
-    out.insert({item.key.x, item.key.y});
+    EXPECT_EQ(FreeColumnsVoxel::BlockKey(item.key.x, item.key.y), item.key) << "a block's key";
+    if (i > 0) EXPECT_LT(items[i - 1].key, item.key) << "sorted, one item per block";
+    EXPECT_FALSE(item.data.IsEmpty());
+    for (int32_t dx = 0; dx < FreeColumnsVoxel::kSide; ++dx) {
+      for (int32_t dy = 0; dy < FreeColumnsVoxel::kSide; ++dy) {
+        const uint32_t count =
+            item.data.counts[FreeColumnsVoxel::Index(item.key.x + dx, item.key.y + dy)];
+        EXPECT_LE(count, 1u);
+        if (count == 1) out.insert({item.key.x + dx, item.key.y + dy});
+      }
+    }
   }
-  EXPECT_EQ(out.size(), batch.size()) << "one item per column";
+  EXPECT_EQ(out.size(), s.columns);
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "skimap/free_columns_voxel.h"
 #include "skimap/hypotheses_voxel.h"
 #include "skimap/label_voxel.h"
 
@@ -21,6 +22,60 @@ TEST(RGBWeightedVoxelTest, WeightedMeanAndExactDeintegration) {
   EXPECT_FALSE(v.IsEmpty());
   v -= RGBWeightedVoxel(255, 0, 0, 1);
   EXPECT_TRUE(v.IsEmpty());
+}
+
+TEST(FreeColumnsVoxelTest, BlocksOfFourByFourColumnsWithExactCounts) {
+  // Keys floor to multiples of 4, negative ones too; slots are x major.
+  EXPECT_EQ(FreeColumnsVoxel::BlockKey(5, -1), (VoxelKey{4, -4, 0}));
+  EXPECT_EQ(FreeColumnsVoxel::BlockKey(-4, 3), (VoxelKey{-4, 0, 0}));
+  EXPECT_EQ(FreeColumnsVoxel::Index(5, -1), 1 * 4 + 3);
+  FreeColumnsVoxel a, b;
+  a.counts[0] = 2;
+  a.counts[9] = 1;
+  b.counts[9] = 3;
+  a += b;
+  EXPECT_EQ(a.counts[9], 4u);
+  EXPECT_EQ(a.Columns(), 2);
+  EXPECT_FLOAT_EQ(a.Weight(), 4);
+  a -= b;
+  EXPECT_EQ(a.counts[9], 1u);
+  b.counts[0] = 5;  // more than a holds: clamps at zero
+  a -= b;
+  EXPECT_TRUE(a.IsEmpty());
+  EXPECT_TRUE(FreeColumnsVoxel().IsEmpty());
+}
+
+TEST(FreeColumnsVoxelTest, EncodesTheColumnsItHoldsAndRejectsAListedZero) {
+  FreeColumnsVoxel v;
+  v.counts[3] = 7;
+  v.counts[12] = 70000;
+  std::string bytes;
+  Encoder e(&bytes);
+  v.Encode(e);
+  EXPECT_EQ(bytes.size(), 2u + 2 * 4);  // the mask, then two counts
+  FreeColumnsVoxel back;
+  Decoder d(bytes);
+  ASSERT_TRUE(FreeColumnsVoxel::Decode(d, &back));
+  EXPECT_EQ(back, v);
+  std::string zero = bytes;
+  zero[2] = zero[3] = zero[4] = zero[5] = 0;  // slot 3 listed with a count of 0
+  Decoder dz(zero);
+  EXPECT_FALSE(FreeColumnsVoxel::Decode(dz, &back));
+  Decoder short_input(std::string_view(bytes).substr(0, 7));
+  EXPECT_FALSE(FreeColumnsVoxel::Decode(short_input, &back));
+}
+
+TEST(FreeColumnsVoxelTest, FoldsAColumnOfTheOldVolumeIntoItsBlock) {
+  VoxelKey block;
+  FreeColumnsVoxel v;
+  ASSERT_TRUE(FreeColumnsVoxel::FromLegacy({-3, 6, 0}, WeightVoxel{5}, &block, &v));
+  EXPECT_EQ(block, (VoxelKey{-4, 4, 0}));
+  EXPECT_EQ(v.counts[size_t(FreeColumnsVoxel::Index(-3, 6))], 5u);
+  EXPECT_EQ(v.Columns(), 1);
+  // What the old volume never held: another layer, a fraction, nothing.
+  EXPECT_FALSE(FreeColumnsVoxel::FromLegacy({0, 0, 1}, WeightVoxel{1}, &block, &v));
+  EXPECT_FALSE(FreeColumnsVoxel::FromLegacy({0, 0, 0}, WeightVoxel{1.5f}, &block, &v));
+  EXPECT_FALSE(FreeColumnsVoxel::FromLegacy({0, 0, 0}, WeightVoxel{0}, &block, &v));
 }
 
 TEST(MultiLabelVoxelTest, MergeIsLosslessPerLabel) {  // Eq. 4-5

@@ -102,7 +102,7 @@ class CarveStage final : public FrameStage {
         grid_(grid),
         pool_(pool) {}
   perception::IntegrationStats Stage(const perception::RgbdFrame& frame, Sign sign) override {
-    pending_.Stage(sign, [&](VoxelBatch<WeightVoxel>* batch) {
+    pending_.Stage(sign, [&](VoxelBatch<FreeColumnsVoxel>* batch) {
       perception::BuildFreeSpaceBatch(frame, grid_, integration_, free_space_, batch, pool_);
     });
     return {};
@@ -118,7 +118,7 @@ class CarveStage final : public FrameStage {
   const perception::FreeSpaceOptions free_space_;
   const Grid grid_;
   ThreadPool* const pool_;
-  Pending<WeightVoxel> pending_;
+  Pending<FreeColumnsVoxel> pending_;
 };
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "perception/frame_integrator.h"
 #include "server/core/logging/log.h"
+#include "server/core/maps/free_space_grid.h"
 #include "server/core/transfer/chunk_codec.h"
 #include "server/core/transfer/map_meta.h"
 
@@ -78,7 +79,7 @@ v1::MapStats LiveMap::Stats() const {
   stats.set_instance_event_sequence(state_.recognition.log.last_sequence());
   stats.set_frames(state_.frames);
   stats.set_kept_frame_bytes(kept_frame_bytes_.load(std::memory_order_relaxed));
-  stats.set_free_voxels(state_.free.size());
+  stats.set_free_voxels(CountFreeColumns(state_.free));
   stats.set_journal_position(journal_position_.load(std::memory_order_acquire));
   stats.set_persistent(options_.store != nullptr);
   stats.set_snapshot_position(snapshot_position_.load(std::memory_order_acquire));

@@ -181,7 +181,7 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
         absl::StrCat("inflation_radius: must be in [0, 5] metres, not ", inflation));
   }
   // One frame seeing through a column is evidence enough (not the surface threshold).
-  constexpr float kMinFreeFrames = 1;
+  constexpr uint32_t kMinFreeFrames = 1;
   if (!v1::GridEncoding_IsValid(request.data_encoding())) {
     return absl::InvalidArgumentError(
         absl::StrCat("data_encoding: unknown value ", request.data_encoding()));

@@ -25,6 +25,7 @@
 #include "server/core/maps/map_config.h"
 #include "server/core/recognition/instance_log.h"
 #include "server/core/transfer/chunk_codec.h"
+#include "skimap/free_columns_voxel.h"
 #include "skimap/hypotheses_voxel.h"
 #include "skimap/label_voxel.h"
 #include "skimap/occupancy_grid_cache.h"
@@ -33,9 +34,10 @@
 namespace skimap::server {
 
 using Volume = SkiMap<RGBWeightedVoxel>;
-// Free-space evidence for maps with carve_free_space: one layer (z key 0) whose weight
-// counts the frames whose rays crossed a column's band (perception/free_space.h).
-using FreeVolume = SkiMap<WeightVoxel>;
+// Free-space evidence for maps with carve_free_space: one layer (z key 0) of 4 × 4 blocks
+// of columns, each column's count the frames whose rays crossed its band
+// (perception/free_space.h, skimap/free_columns_voxel.h).
+using FreeVolume = SkiMap<FreeColumnsVoxel>;
 
 using LabelsVolume = SkiMap<MultiLabelVoxel>;
 using HypothesesVolume = SkiMap<HypothesesVoxel>;

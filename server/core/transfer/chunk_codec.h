@@ -93,14 +93,13 @@ std::string EncodeVoxelChunk(const ChunkCoord& c,
   return SealChunk(ChunkContent::kVoxels, V::kTypeId, static_cast<uint32_t>(n), std::move(raw));
 }
 
-// Decodes a blob written by EncodeVoxelChunk for chunk `c` and adds its voxels to `out`.
-// DataLoss / FailedPrecondition / InvalidArgument as OpenChunk, or for malformed voxels.
-template <Voxel V>
-absl::Status DecodeVoxelChunk(const ChunkCoord& c, std::string_view blob, VoxelBatch<V>* out) {
-  absl::StatusOr<OpenedChunk> opened = OpenChunk(blob, ChunkContent::kVoxels, V::kTypeId);
-  if (!opened.ok()) return opened.status();
-  const size_t n = opened->count;
-  const std::string_view raw = opened->raw;
+namespace internal {
+
+// The voxels of an opened chunk of type V, each passed to add(key, voxel).
+template <Voxel V, class Add>
+absl::Status DecodeVoxels(const ChunkCoord& c, const OpenedChunk& opened, Add&& add) {
+  const size_t n = opened.count;
+  const std::string_view raw = opened.raw;
   if (raw.size() < 3 * n) return absl::DataLossError("chunk: keys truncated");
   const KeyBox box = ChunkBox(c);
   Decoder d(raw.substr(3 * n));
@@ -122,10 +121,44 @@ absl::Status DecodeVoxelChunk(const ChunkCoord& c, std::string_view blob, VoxelB
     if (!V::Decode(d, &v))
       return absl::DataLossError(absl::StrCat("chunk: voxel ", i, " truncated"));
     if (v.IsEmpty()) return absl::DataLossError(absl::StrCat("chunk: voxel ", i, " is empty"));
-    out->AddKey({box.min.x + lx, box.min.y + ly, box.min.z + lz}, v);
+    if (!add(VoxelKey{box.min.x + lx, box.min.y + ly, box.min.z + lz}, v)) {
+      return absl::DataLossError(absl::StrCat("chunk: voxel ", i, " is not one of its type"));
+    }
   }
   if (d.remaining() != 0) return absl::DataLossError("chunk: trailing bytes");
   return absl::OkStatus();
+}
+
+}  // namespace internal
+
+// Decodes a blob written by EncodeVoxelChunk for chunk `c` and adds its voxels to `out`.
+// A voxel type that replaced an older one (V::Legacy, V::FromLegacy) also reads chunks of
+// the older type, converted (their keys stay in the chunk: blocks never straddle chunks).
+// DataLoss / FailedPrecondition / InvalidArgument as OpenChunk, or for malformed voxels.
+template <Voxel V>
+absl::Status DecodeVoxelChunk(const ChunkCoord& c, std::string_view blob, VoxelBatch<V>* out) {
+  absl::StatusOr<OpenedChunk> opened = OpenChunk(blob, ChunkContent::kVoxels, kAnyChunkType);
+  if (!opened.ok()) return opened.status();
+  if constexpr (requires { typename V::Legacy; }) {
+    using Legacy = typename V::Legacy;
+    if (opened->type == Legacy::kTypeId) {
+      return internal::DecodeVoxels<Legacy>(c, *opened, [&](const VoxelKey& k, const Legacy& v) {
+        VoxelKey key;
+        V converted;
+        if (!V::FromLegacy(k, v, &key, &converted)) return false;
+        out->AddKey(key, converted);
+        return true;
+      });
+    }
+  }
+  if (opened->type != V::kTypeId) {
+    return absl::DataLossError(
+        absl::StrCat("chunk: holds voxel type ", opened->type, ", expected type ", V::kTypeId));
+  }
+  return internal::DecodeVoxels<V>(c, *opened, [&](const VoxelKey& k, const V& v) {
+    out->AddKey(k, v);
+    return true;
+  });
 }
 
 }  // namespace skimap::server

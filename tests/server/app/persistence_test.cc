@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <set>
@@ -10,6 +11,8 @@
 #include <tuple>
 
 #include "client/map_client.h"
+#include "server/core/transfer/chunk_codec.h"
+#include "skimap/free_columns_voxel.h"
 #include "storage/sqlite.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/common/synthetic_scene.h"
@@ -251,6 +254,69 @@ TEST(PersistenceTest, ACorruptMapAnswersDataLossNamingItAndTheOthersServe) {
   Stream(*client, "maps/good", 3, 1);
   EXPECT_TRUE(client->DeleteMap("maps/cut").ok());
   EXPECT_TRUE(server.Running());
+}
+
+// Until 2026-12-02 the free volume held one WeightVoxel per column; a store written then
+// loads, its columns folded into blocks: the same grid and the same free columns.
+TEST(PersistenceTest, AFreeVolumeStoredPerColumnLoadsAsBlocks) {
+  SkimapdProcess server(SKIMAPD_PATH, {"--worker_threads=1"});
+  ASSERT_TRUE(server.Start().ok());
+  auto client = client::MapClient::Connect(server.address());
+  CreateMap(*client, "carved", true);
+  Stream(*client, "maps/carved", 0, 6);
+  const std::string grid_before = Grid(*client, "maps/carved");
+  const uint64_t free_before = client->GetMap("maps/carved")->stats().free_voxels();
+  ASSERT_GT(free_before, 100u);
+  ASSERT_EQ(server.Stop(), 0);  // a clean stop snapshots every map
+  // Rewrites every stored free chunk as the old per-column chunk of the same columns.
+  {
+    auto db = storage::Database::Open(server.data_dir() + "/maps.sqlite");
+    ASSERT_TRUE(db.ok()) << db.status();
+    auto read = (*db)->Prepare(
+        "SELECT cx, cy, cz, bytes FROM chunks WHERE map = 'carved' AND volume = 'free'");
+    ASSERT_TRUE(read.ok()) << read.status();
+    std::vector<std::tuple<server::ChunkCoord, std::string>> old_chunks;
+    uint64_t columns = 0;
+    while (*read->Step()) {
+      const server::ChunkCoord c{int32_t(read->ColumnInt(0)), int32_t(read->ColumnInt(1)),
+                                 int32_t(read->ColumnInt(2))};
+      VoxelBatch<FreeColumnsVoxel> blocks;
+      ASSERT_TRUE(server::DecodeVoxelChunk(c, read->ColumnBlob(3), &blocks).ok());
+      std::vector<VoxelBatch<WeightVoxel>::Item> per_column;
+      for (const auto& b : blocks.items()) {
+        for (int32_t dx = 0; dx < FreeColumnsVoxel::kSide; ++dx) {
+          for (int32_t dy = 0; dy < FreeColumnsVoxel::kSide; ++dy) {
+            const uint32_t n =
+                b.data.counts[size_t(FreeColumnsVoxel::Index(b.key.x + dx, b.key.y + dy))];
+            if (n > 0) per_column.push_back({{b.key.x + dx, b.key.y + dy, 0}, {float(n)}});
+          }
+        }
+      }
+      std::sort(per_column.begin(), per_column.end(),
+                [](const auto& a, const auto& b) { return a.key < b.key; });
+      columns += per_column.size();
+      old_chunks.emplace_back(c, server::EncodeVoxelChunk<WeightVoxel>(c, per_column));
+    }
+    ASSERT_EQ(columns, free_before);
+    for (const auto& [c, bytes] : old_chunks) {
+      auto write = (*db)->Prepare(
+          "UPDATE chunks SET bytes = ? WHERE map = 'carved' AND volume = 'free' AND cx = ? AND "
+          "cy = ? AND cz = ?");
+      ASSERT_TRUE(write.ok()) << write.status();
+      ASSERT_TRUE(write->BindBlob(1, bytes).ok());
+      ASSERT_TRUE(write->BindInt(2, c.x).ok());
+      ASSERT_TRUE(write->BindInt(3, c.y).ok());
+      ASSERT_TRUE(write->BindInt(4, c.z).ok());
+      ASSERT_TRUE(write->Step().ok());
+    }
+  }
+  ASSERT_TRUE(server.Start().ok());
+  client = client::MapClient::Connect(server.address());
+  EXPECT_EQ(client->GetMap("maps/carved")->stats().free_voxels(), free_before);
+  EXPECT_EQ(Grid(*client, "maps/carved"), grid_before);
+  // It goes on taking frames, and a stop writes its chunks as blocks again.
+  Stream(*client, "maps/carved", 6, 2);
+  EXPECT_GE(client->GetMap("maps/carved")->stats().free_voxels(), free_before);
 }
 
 TEST(PersistenceTest, AStoreFromANewerServerOrNotSqliteIsRefusedAtStart) {

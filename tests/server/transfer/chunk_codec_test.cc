@@ -5,9 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <random>
+#include <utility>
 
 #include "server/core/maps/frame_index.h"
+#include "skimap/free_columns_voxel.h"
 
 namespace skimap::server {
 namespace {
@@ -40,6 +43,59 @@ TEST(ChunkCodecTest, VoxelChunksRoundTripExactlyAndCompress) {
   // Another voxel type or content is refused.
   VoxelBatch<WeightVoxel> other;
   EXPECT_EQ(DecodeVoxelChunk<WeightVoxel>(c, blob, &other).code(), absl::StatusCode::kDataLoss);
+}
+
+// Snapshots written before the free volume held blocks hold one WeightVoxel per column:
+// they load as the blocks of the same columns and counts.
+TEST(ChunkCodecTest, OldPerColumnFreeChunksLoadAsBlocks) {
+  const ChunkCoord c{-1, 2, 0};
+  const KeyBox box = ChunkBox(c);
+  std::vector<VoxelBatch<WeightVoxel>::Item> columns;
+  std::map<std::pair<int32_t, int32_t>, uint32_t> expected;
+  for (int32_t x = 0; x < 32; x += 3) {
+    for (int32_t y = 0; y < 32; y += 5) {
+      const uint32_t count = uint32_t(1 + (x + y) % 4);
+      columns.push_back({{box.min.x + x, box.min.y + y, 0}, WeightVoxel{float(count)}});
+      expected[{box.min.x + x, box.min.y + y}] = count;
+    }
+  }
+  VoxelBatch<FreeColumnsVoxel> blocks;
+  ASSERT_TRUE(
+      DecodeVoxelChunk<FreeColumnsVoxel>(c, EncodeVoxelChunk<WeightVoxel>(c, columns), &blocks)
+          .ok());
+  blocks.Finalize();
+  std::map<std::pair<int32_t, int32_t>, uint32_t> got;
+  for (const auto& item : blocks.items()) {
+    EXPECT_TRUE(box.Contains(item.key));
+    EXPECT_EQ(item.key, FreeColumnsVoxel::BlockKey(item.key.x, item.key.y));
+    for (int32_t dx = 0; dx < 4; ++dx) {
+      for (int32_t dy = 0; dy < 4; ++dy) {
+        const uint32_t n =
+            item.data.counts[size_t(FreeColumnsVoxel::Index(item.key.x + dx, item.key.y + dy))];
+        if (n > 0) got[{item.key.x + dx, item.key.y + dy}] = n;
+      }
+    }
+  }
+  EXPECT_EQ(got, expected);
+  // A per-column chunk with another layer was never written: refused.
+  columns.push_back({{box.min.x, box.min.y, 1}, WeightVoxel{1}});
+  VoxelBatch<FreeColumnsVoxel> bad;
+  EXPECT_EQ(
+      DecodeVoxelChunk<FreeColumnsVoxel>(c, EncodeVoxelChunk<WeightVoxel>(c, columns), &bad).code(),
+      absl::StatusCode::kDataLoss);
+  // Blocks round trip, and no other type passes for them.
+  VoxelBatch<FreeColumnsVoxel> again;
+  const std::vector<VoxelBatch<FreeColumnsVoxel>::Item> items(blocks.items().begin(),
+                                                              blocks.items().end());
+  ASSERT_TRUE(
+      DecodeVoxelChunk<FreeColumnsVoxel>(c, EncodeVoxelChunk<FreeColumnsVoxel>(c, items), &again)
+          .ok());
+  EXPECT_EQ(again.size(), blocks.size());
+  VoxelBatch<FreeColumnsVoxel> rgb;
+  EXPECT_EQ(DecodeVoxelChunk<FreeColumnsVoxel>(
+                c, EncodeVoxelChunk<RGBWeightedVoxel>(c, SomeVoxels(c, 10)), &rgb)
+                .code(),
+            absl::StatusCode::kDataLoss);
 }
 
 TEST(ChunkCodecTest, EveryCorruptionIsAnErrorNeverACrash) {
