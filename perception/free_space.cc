@@ -1,6 +1,7 @@
 #include "perception/free_space.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -292,9 +293,7 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
       const double max_r2 = fan.max_r * fan.max_r;
       const size_t bins = fan.bins();
       const int32_t block_x0 = FreeColumnsVoxel::BlockKey(min_x, 0).x;
-      const int32_t block_y0 = FreeColumnsVoxel::BlockKey(0, min_y).y;
       const size_t stripes = size_t((int64_t{max_x} - block_x0) / kSide + 1);
-      const size_t block_rows = size_t((int64_t{max_y} - block_y0) / kSide + 1);
       // A fan narrower than a half-turn lies in a convex wedge from the camera: its edges
       // (a bin wider on each side, for rounding) bound each column's ys, so only cells the
       // wedge can hold are tested. A wider fan is bounded by its reach only.
@@ -308,18 +307,76 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
         squared[i] = {fan.intervals[i].r0 * fan.intervals[i].r0,
                       fan.intervals[i].r1 * fan.intervals[i].r1};
       }
+      // Whether the cell centre (dx, dy) from the camera lies in the fan.
+      auto in_fan = [&](double dx, double dy) {
+        const double r2 = dx * dx + dy * dy;
+        if (r2 > max_r2) return false;
+        const double a = Wrap(FastAtan2(dy, dx) - reference) - fan.min_angle;
+        if (a < 0) return false;
+        const size_t b = size_t(a / fan.bin_width);
+        if (b >= bins) return false;
+        for (uint32_t j = fan.first[b]; j < fan.first[b + 1]; ++j) {
+          if (r2 >= squared[j].r0 && r2 <= squared[j].r1) return true;
+        }
+        return false;
+      };
+      // A block's cell centres (x in [cx0, cx1], y in [cy0, cy1] from the camera) all in the
+      // fan, none, or some. Away from the camera the centres' angles lie between those of
+      // the rectangle's corners (a convex set without the camera), and their distances
+      // between the rectangle's nearest point and farthest corner: when every bin of that
+      // angle range has one interval holding those distances, every centre is in the fan;
+      // when none overlaps them, none is. The angle range gets a margin of 3e-5 rad for
+      // FastAtan2's error at the corners and at the centres.
+      enum class Cover { kAll, kNone, kSome };
+      auto cover = [&](double cx0, double cx1, double cy0, double cy1) {
+        if (cx0 <= res && cx1 >= -res && cy0 <= res && cy1 >= -res) return Cover::kSome;
+        const double nx = std::clamp(0.0, cx0, cx1), ny = std::clamp(0.0, cy0, cy1);
+        const double r2_min = nx * nx + ny * ny;
+        if (r2_min > max_r2) return Cover::kNone;
+        double r2_max = 0, a_min = 1e9, a_max = -1e9;
+        for (double cx : {cx0, cx1}) {
+          for (double cy : {cy0, cy1}) {
+            r2_max = std::max(r2_max, cx * cx + cy * cy);
+            const double a = Wrap(FastAtan2(cy, cx) - reference) - fan.min_angle;
+            a_min = std::min(a_min, a);
+            a_max = std::max(a_max, a);
+          }
+        }
+        if (a_max - a_min > 1.0) return Cover::kSome;  // across the seam behind the camera
+        constexpr double kMargin = 3e-5;
+        const double lo = std::floor((a_min - kMargin) / fan.bin_width);
+        const double hi = std::floor((a_max + kMargin) / fan.bin_width);
+        if (hi < 0 || lo >= double(bins)) return Cover::kNone;
+        bool all = lo >= 0 && hi < double(bins), any = false;
+        for (size_t b = size_t(std::max(lo, 0.0)); b <= size_t(std::min(hi, double(bins - 1)));
+             ++b) {
+          bool holds = false;
+          for (uint32_t j = fan.first[b]; j < fan.first[b + 1]; ++j) {
+            holds = holds || (squared[j].r0 <= r2_min && squared[j].r1 >= r2_max);
+            any = any || (squared[j].r0 <= r2_max && squared[j].r1 >= r2_min);
+          }
+          all = all && holds;
+          if (!all && any) return Cover::kSome;
+        }
+        return all ? Cover::kAll : any ? Cover::kSome : Cover::kNone;
+      };
       ForPieces(pool, stripes, pieces, [&](size_t piece, size_t first, size_t last) {
         std::vector<Item>& out = item_pieces[piece];
-        std::vector<FreeColumnsVoxel> row(block_rows);  // the stripe's blocks, by y
         for (size_t stripe = first; stripe < last; ++stripe) {
           const int32_t bx = block_x0 + int32_t(stripe) * kSide;
-          size_t used_lo = block_rows, used_hi = 0;
-          for (int32_t kx = std::max(bx, min_x); kx <= std::min(bx + kSide - 1, max_x); ++kx) {
+          const int32_t x0 = std::max(bx, min_x), x1 = std::min(bx + kSide - 1, max_x);
+          // Each column's candidate ys (empty: y0 > y1).
+          std::array<int32_t, kSide> ys0, ys1;
+          int32_t lo_y = max_y + 1, hi_y = min_y - 1;
+          for (int32_t kx = x0; kx <= x1; ++kx) {
+            int32_t& y0 = ys0[size_t(kx - bx)];
+            int32_t& y1 = ys1[size_t(kx - bx)];
+            y0 = 1, y1 = 0;
             const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
             if (dx * dx > max_r2) continue;
             // Only the ys within max_r of the camera (a cell more at each end for rounding).
             const double reach = std::sqrt(max_r2 - dx * dx);
-            int32_t y0 = min_y, y1 = max_y;
+            y0 = min_y, y1 = max_y;
             if (int32_t k; grid.AxisToKey(o.y() - reach, grid.origin().y, &k)) {
               y0 = std::max(y0, k - 1);
             }
@@ -337,7 +394,10 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
                 (d2x > 0 ? hi : lo) =
                     d2x > 0 ? std::min(hi, d2y * dx / d2x) : std::max(lo, d2y * dx / d2x);
               }
-              if (lo > hi + res) continue;
+              if (lo > hi + res) {
+                y0 = 1, y1 = 0;
+                continue;
+              }
               if (int32_t k; grid.AxisToKey(o.y() + lo, grid.origin().y, &k)) {
                 y0 = std::max(y0, k - 1);
               }
@@ -345,29 +405,33 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
                 y1 = std::min(y1, k + 1);
               }
             }
-            for (int32_t ky = y0; ky <= y1; ++ky) {
-              const double dy = grid.AxisCenter(ky, grid.origin().y) - o.y();
-              const double r2 = dx * dx + dy * dy;
-              if (r2 > max_r2) continue;
-              const double a = Wrap(FastAtan2(dy, dx) - reference) - fan.min_angle;
-              if (a < 0) continue;
-              const size_t b = size_t(a / fan.bin_width);
-              if (b >= bins) continue;
-              for (uint32_t j = fan.first[b]; j < fan.first[b + 1]; ++j) {
-                if (r2 >= squared[j].r0 && r2 <= squared[j].r1) {
-                  const size_t i = size_t(ky - block_y0) / kSide;
-                  row[i].counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
-                  used_lo = std::min(used_lo, i);
-                  used_hi = std::max(used_hi, i);
-                  break;
+            if (y0 <= y1) lo_y = std::min(lo_y, y0), hi_y = std::max(hi_y, y1);
+          }
+          if (lo_y > hi_y) continue;
+          const double cx0 = grid.AxisCenter(x0, grid.origin().x) - o.x();
+          const double cx1 = grid.AxisCenter(x1, grid.origin().x) - o.x();
+          for (int32_t by = FreeColumnsVoxel::BlockKey(0, lo_y).y; by <= hi_y; by += kSide) {
+            const int32_t y0 = std::max(by, min_y), y1 = std::min(by + kSide - 1, max_y);
+            const Cover c = cover(cx0, cx1, grid.AxisCenter(y0, grid.origin().y) - o.y(),
+                                  grid.AxisCenter(y1, grid.origin().y) - o.y());
+            if (c == Cover::kNone) continue;
+            FreeColumnsVoxel block;
+            for (int32_t kx = x0; kx <= x1; ++kx) {
+              if (c == Cover::kAll) {
+                for (int32_t ky = y0; ky <= y1; ++ky) {
+                  block.counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
+                }
+                continue;
+              }
+              const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
+              for (int32_t ky = std::max(y0, ys0[size_t(kx - bx)]);
+                   ky <= std::min(y1, ys1[size_t(kx - bx)]); ++ky) {
+                if (in_fan(dx, grid.AxisCenter(ky, grid.origin().y) - o.y())) {
+                  block.counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
                 }
               }
             }
-          }
-          for (size_t i = used_lo; i <= used_hi && i < block_rows; ++i) {
-            if (row[i].IsEmpty()) continue;
-            out.push_back({{bx, block_y0 + int32_t(i) * kSide, 0}, row[i]});
-            row[i] = {};
+            if (!block.IsEmpty()) out.push_back({{bx, by, 0}, block});
           }
         }
       });

@@ -20,7 +20,9 @@
 // are the frames that saw through each column's band. Pixels without
 // depth carve nothing (no return is no evidence). Deterministic, like BuildFrameBatch, so
 // pose updates can subtract a frame's free evidence exactly. Cost: one pass over the rays
-// and one over the fan's columns (bench/free_space_bench.cc).
+// and one over the fan's blocks; a block whose corners show it wholly inside or outside the
+// fan is decided at once, the others column by column, with the same answer
+// (bench/free_space_bench.cc).
 //
 // Thread safety: free functions; the batch is the caller's.
 #ifndef PERCEPTION_FREE_SPACE_H_

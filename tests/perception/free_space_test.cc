@@ -86,7 +86,9 @@ std::set<std::pair<int32_t, int32_t>> Carve(const RgbdFrame& f, const FreeSpaceO
     const auto& item = items[i];
     EXPECT_EQ(item.key.z, 0);
     EXPECT_EQ(FreeColumnsVoxel::BlockKey(item.key.x, item.key.y), item.key) << "a block's key";
-    if (i > 0) EXPECT_LT(items[i - 1].key, item.key) << "sorted, one item per block";
+    if (i > 0) {
+      EXPECT_LT(items[i - 1].key, item.key) << "sorted, one item per block";
+    }
     EXPECT_FALSE(item.data.IsEmpty());
     for (int32_t dx = 0; dx < FreeColumnsVoxel::kSide; ++dx) {
       for (int32_t dy = 0; dy < FreeColumnsVoxel::kSide; ++dy) {
