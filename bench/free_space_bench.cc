@@ -3,7 +3,7 @@
 // program, not a test:
 //
 //   build/bench/bench/free_space_bench [--ycbv=DIR] [--dataset=DIR --every=15 --limit=60]
-//       [--resolutions=0.01,0.02,0.05] [--reps=3] [--worker_threads=2] [--octomap=true]
+//       [--resolutions=0.01,0.02,0.05] [--reps=4] [--worker_threads=2] [--octomap=true]
 //
 // Frame sets: the 10 real frames of ycbv-0000, and optionally any BOP dataset with poses
 // (a `skimap-sim` render: z up, floor at z = 0), every `every`-th frame, at most `limit`.
@@ -13,7 +13,11 @@
 // server's ThreadPool: integration (back-projection, batch, SkiMap::Integrate) and free
 // space (perception::BuildFreeSpaceBatch and its Integrate into the free volume), each
 // timed from Stage to the end of Apply. Decoding is excluded from both (the frames are
-// decoded once), so the ratio free / integration is the larger one a stream sees.
+// decoded once), so the ratio free / integration is the larger one a stream sees. Each rep
+// also runs the same frames into a map without carving (before the carving map in even
+// reps, after it in odd ones): "on / off - 1" is what free space adds to a whole frame, the
+// pool's wake-ups and cache effects on integration included (a stage timed alone can look
+// cheaper by leaving its cost in the next one). Use an even --reps.
 //
 // Peer: OctoMap 1.9's OcTree::insertPointCloud (octomap_server's per-frame update: free
 // space along every ray in 3D, occupied end points), given the same rays (the end points
@@ -52,7 +56,7 @@ ABSL_FLAG(std::string, dataset, "", "another BOP dataset with poses (e.g. a skim
 ABSL_FLAG(int, every, 15, "--dataset: every n-th frame");
 ABSL_FLAG(int, limit, 60, "--dataset: at most this many frames");
 ABSL_FLAG(std::string, resolutions, "0.01,0.02,0.05", "voxel edges, metres");
-ABSL_FLAG(int, reps, 3, "passes over each frame set per resolution");
+ABSL_FLAG(int, reps, 4, "passes over each frame set per resolution (even: see above)");
 ABSL_FLAG(int, worker_threads, 2, "the map's ThreadPool (skimapd's default)");
 ABSL_FLAG(bool, octomap, true, "also run OctoMap's insertPointCloud on the same rays");
 
@@ -133,48 +137,73 @@ void Run(const std::string& name, const std::vector<RealFrame>& real, ThreadPool
   std::printf("\n## %s: %zu frames\n\n", name.c_str(), frames.size());
   std::printf(
       "| voxel | integration ms/frame (median) | free space ms/frame (median) | free / "
-      "integration (sum) | free columns | OctoMap insertPointCloud ms/frame | OctoMap / "
-      "free space | OctoMap free columns we have | ours OctoMap knows |\n"
-      "|---|---|---|---|---|---|---|---|---|\n");
+      "integration (sum) | frame ms, carving off / on (median) | on / off - 1 (sums) | free "
+      "columns | OctoMap insertPointCloud ms/frame | OctoMap / free space | OctoMap free "
+      "columns we have | ours OctoMap knows |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (absl::string_view r : absl::StrSplit(absl::GetFlag(FLAGS_resolutions), ',')) {
     const double res = std::stod(std::string(r));
     const server::MapConfig config = Config(res);
-    Samples integrate, carve;
-    double integrate_sum = 0, carve_sum = 0;
+    server::MapConfig plain = config;  // the same map without carving
+    plain.carve_free_space = false;
+    Samples integrate, carve, off, on;
+    double integrate_sum = 0, carve_sum = 0, off_sum = 0;
     size_t free_columns = 0;
     absl::flat_hash_set<Column> ours;
-    for (int rep = 0; rep < absl::GetFlag(FLAGS_reps); ++rep) {
-      server::MapState state(config, &pool);
-      auto stages = server::MakeFrameStages(config, Grid(config.resolution), &pool);
-      if (stages.size() != 2) Die("expected the integration and free-space stages");
+    // The whole frame without carving, before the same frames with it in even reps and
+    // after them in odd ones (the first map of a run pays fresh pages): what free space adds,
+    // the pool's wake-ups and cache effects on integration included.
+    auto run_plain = [&] {
+      server::MapState state(plain, &pool);
+      auto stages = server::MakeFrameStages(plain, Grid(plain.resolution), &pool);
+      if (stages.size() != 1) Die("expected the integration stage only");
       for (const perception::RgbdFrame& f : frames) {
         const auto t0 = Clock::now();
         stages[0]->Stage(f, server::FrameStage::kAdd);
         stages[0]->Apply(&state);
-        const auto t1 = Clock::now();
-        stages[1]->Stage(f, server::FrameStage::kAdd);
-        stages[1]->Apply(&state);
-        const auto t2 = Clock::now();
-        integrate.Add(Ms(t1 - t0));
-        carve.Add(Ms(t2 - t1));
-        integrate_sum += Ms(t1 - t0);
-        carve_sum += Ms(t2 - t1);
+        const double ms = Ms(Clock::now() - t0);
+        off.Add(ms);
+        off_sum += ms;
       }
-      free_columns = server::CountFreeColumns(state.free);
-      if (rep == 0) {
-        state.free.ForEach([&](const VoxelKey& k, const FreeColumnsVoxel& block) {
-          for (int32_t dx = 0; dx < FreeColumnsVoxel::kSide; ++dx) {
-            for (int32_t dy = 0; dy < FreeColumnsVoxel::kSide; ++dy) {
-              if (block.counts[FreeColumnsVoxel::Index(k.x + dx, k.y + dy)] > 0) {
-                ours.insert({k.x + dx, k.y + dy});
+    };
+    for (int rep = 0; rep < absl::GetFlag(FLAGS_reps); ++rep) {
+      if (rep % 2 == 0) run_plain();
+      {  // the carving map, gone before an odd rep's plain run
+        server::MapState state(config, &pool);
+        auto stages = server::MakeFrameStages(config, Grid(config.resolution), &pool);
+        if (stages.size() != 2) Die("expected the integration and free-space stages");
+        for (const perception::RgbdFrame& f : frames) {
+          const auto t0 = Clock::now();
+          stages[0]->Stage(f, server::FrameStage::kAdd);
+          stages[0]->Apply(&state);
+          const auto t1 = Clock::now();
+          stages[1]->Stage(f, server::FrameStage::kAdd);
+          stages[1]->Apply(&state);
+          const auto t2 = Clock::now();
+          integrate.Add(Ms(t1 - t0));
+          carve.Add(Ms(t2 - t1));
+          on.Add(Ms(t2 - t0));
+          integrate_sum += Ms(t1 - t0);
+          carve_sum += Ms(t2 - t1);
+        }
+        free_columns = server::CountFreeColumns(state.free);
+        if (rep == 0) {
+          state.free.ForEach([&](const VoxelKey& k, const FreeColumnsVoxel& block) {
+            for (int32_t dx = 0; dx < FreeColumnsVoxel::kSide; ++dx) {
+              for (int32_t dy = 0; dy < FreeColumnsVoxel::kSide; ++dy) {
+                if (block.counts[FreeColumnsVoxel::Index(k.x + dx, k.y + dy)] > 0) {
+                  ours.insert({k.x + dx, k.y + dy});
+                }
               }
             }
-          }
-        });
+          });
+        }
       }
+      if (rep % 2 == 1) run_plain();
     }
-    std::printf("| %g cm | %.2f | %.2f | %.3f | %zu |", res * 100, integrate.Median(),
-                carve.Median(), carve_sum / integrate_sum, free_columns);
+    std::printf("| %g cm | %.2f | %.2f | %.3f | %.2f / %.2f | %.3f | %zu |", res * 100,
+                integrate.Median(), carve.Median(), carve_sum / integrate_sum, off.Median(),
+                on.Median(), (integrate_sum + carve_sum) / off_sum - 1, free_columns);
 #ifdef SKIMAP_BENCH_OCTOMAP
     if (absl::GetFlag(FLAGS_octomap)) {
       std::vector<octomap::Pointcloud> clouds;

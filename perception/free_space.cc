@@ -190,8 +190,11 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   const Eigen::Vector3d& o = frame.pose.translation;
   const double res = grid.resolution();
   const uint16_t* depth = frame.depth.pixels.data();
-  // Pieces of work (rows of rays, then x ranges of columns), concatenated in order: the
-  // batch does not depend on the pool.
+  // Pieces of work (rows of rays, then x ranges of blocks), concatenated in order: the
+  // batch does not depend on the pool. The pool only takes a fan whose key box holds at
+  // least kPoolMinCells columns: the rays (at most 19 200 at stride 4) and a small fan take
+  // less time than its rounds cost on a 2-core machine (docs/benchmarks.md, "Free space").
+  constexpr int64_t kPoolMinCells = int64_t{1} << 16;
   const size_t pieces = pool == nullptr ? 1 : 4 * size_t(pool->workers() + 1);
   // Angles are measured from the optical axis's azimuth (any azimuth when it looks
   // straight down), so a camera's fan does not straddle the +-pi seam unless its rays point
@@ -212,7 +215,7 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   };
   std::vector<RayPiece> ray_pieces(pieces);
   const size_t lattice_rows = size_t((cam.height + stride - 1) / stride);
-  ForPieces(pool, lattice_rows, pieces, [&](size_t piece, size_t first, size_t last) {
+  ForPieces(nullptr, lattice_rows, pieces, [&](size_t piece, size_t first, size_t last) {
     RayPiece& out = ray_pieces[piece];
     for (int v = int(first) * stride; v < int(last) * stride; v += stride) {
       const double yv = (v - cam.cy) / cam.fy;
@@ -360,81 +363,83 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
         }
         return all ? Cover::kAll : any ? Cover::kSome : Cover::kNone;
       };
-      ForPieces(pool, stripes, pieces, [&](size_t piece, size_t first, size_t last) {
-        std::vector<Item>& out = item_pieces[piece];
-        for (size_t stripe = first; stripe < last; ++stripe) {
-          const int32_t bx = block_x0 + int32_t(stripe) * kSide;
-          const int32_t x0 = std::max(bx, min_x), x1 = std::min(bx + kSide - 1, max_x);
-          // Each column's candidate ys (empty: y0 > y1).
-          std::array<int32_t, kSide> ys0, ys1;
-          int32_t lo_y = max_y + 1, hi_y = min_y - 1;
-          for (int32_t kx = x0; kx <= x1; ++kx) {
-            int32_t& y0 = ys0[size_t(kx - bx)];
-            int32_t& y1 = ys1[size_t(kx - bx)];
-            y0 = 1, y1 = 0;
-            const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
-            if (dx * dx > max_r2) continue;
-            // Only the ys within max_r of the camera (a cell more at each end for rounding).
-            const double reach = std::sqrt(max_r2 - dx * dx);
-            y0 = min_y, y1 = max_y;
-            if (int32_t k; grid.AxisToKey(o.y() - reach, grid.origin().y, &k)) {
-              y0 = std::max(y0, k - 1);
-            }
-            if (int32_t k; grid.AxisToKey(o.y() + reach, grid.origin().y, &k)) {
-              y1 = std::min(y1, k + 1);
-            }
-            if (wedge) {
-              // (dx, dy) is in the wedge when d1 x p >= 0 and p x d2 >= 0: linear in dy.
-              double lo = -reach, hi = reach;
-              if (std::abs(d1x) > 1e-9) {
-                (d1x > 0 ? lo : hi) =
-                    d1x > 0 ? std::max(lo, d1y * dx / d1x) : std::min(hi, d1y * dx / d1x);
-              }
-              if (std::abs(d2x) > 1e-9) {
-                (d2x > 0 ? hi : lo) =
-                    d2x > 0 ? std::min(hi, d2y * dx / d2x) : std::max(lo, d2y * dx / d2x);
-              }
-              if (lo > hi + res) {
+      const bool big = (int64_t{max_x} - min_x + 1) * (int64_t{max_y} - min_y + 1) >= kPoolMinCells;
+      ForPieces(
+          big ? pool : nullptr, stripes, pieces, [&](size_t piece, size_t first, size_t last) {
+            std::vector<Item>& out = item_pieces[piece];
+            for (size_t stripe = first; stripe < last; ++stripe) {
+              const int32_t bx = block_x0 + int32_t(stripe) * kSide;
+              const int32_t x0 = std::max(bx, min_x), x1 = std::min(bx + kSide - 1, max_x);
+              // Each column's candidate ys (empty: y0 > y1).
+              std::array<int32_t, kSide> ys0, ys1;
+              int32_t lo_y = max_y + 1, hi_y = min_y - 1;
+              for (int32_t kx = x0; kx <= x1; ++kx) {
+                int32_t& y0 = ys0[size_t(kx - bx)];
+                int32_t& y1 = ys1[size_t(kx - bx)];
                 y0 = 1, y1 = 0;
-                continue;
+                const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
+                if (dx * dx > max_r2) continue;
+                // Only the ys within max_r of the camera (a cell more at each end for rounding).
+                const double reach = std::sqrt(max_r2 - dx * dx);
+                y0 = min_y, y1 = max_y;
+                if (int32_t k; grid.AxisToKey(o.y() - reach, grid.origin().y, &k)) {
+                  y0 = std::max(y0, k - 1);
+                }
+                if (int32_t k; grid.AxisToKey(o.y() + reach, grid.origin().y, &k)) {
+                  y1 = std::min(y1, k + 1);
+                }
+                if (wedge) {
+                  // (dx, dy) is in the wedge when d1 x p >= 0 and p x d2 >= 0: linear in dy.
+                  double lo = -reach, hi = reach;
+                  if (std::abs(d1x) > 1e-9) {
+                    (d1x > 0 ? lo : hi) =
+                        d1x > 0 ? std::max(lo, d1y * dx / d1x) : std::min(hi, d1y * dx / d1x);
+                  }
+                  if (std::abs(d2x) > 1e-9) {
+                    (d2x > 0 ? hi : lo) =
+                        d2x > 0 ? std::min(hi, d2y * dx / d2x) : std::max(lo, d2y * dx / d2x);
+                  }
+                  if (lo > hi + res) {
+                    y0 = 1, y1 = 0;
+                    continue;
+                  }
+                  if (int32_t k; grid.AxisToKey(o.y() + lo, grid.origin().y, &k)) {
+                    y0 = std::max(y0, k - 1);
+                  }
+                  if (int32_t k; grid.AxisToKey(o.y() + hi, grid.origin().y, &k)) {
+                    y1 = std::min(y1, k + 1);
+                  }
+                }
+                if (y0 <= y1) lo_y = std::min(lo_y, y0), hi_y = std::max(hi_y, y1);
               }
-              if (int32_t k; grid.AxisToKey(o.y() + lo, grid.origin().y, &k)) {
-                y0 = std::max(y0, k - 1);
-              }
-              if (int32_t k; grid.AxisToKey(o.y() + hi, grid.origin().y, &k)) {
-                y1 = std::min(y1, k + 1);
+              if (lo_y > hi_y) continue;
+              const double cx0 = grid.AxisCenter(x0, grid.origin().x) - o.x();
+              const double cx1 = grid.AxisCenter(x1, grid.origin().x) - o.x();
+              for (int32_t by = FreeColumnsVoxel::BlockKey(0, lo_y).y; by <= hi_y; by += kSide) {
+                const int32_t y0 = std::max(by, min_y), y1 = std::min(by + kSide - 1, max_y);
+                const Cover c = cover(cx0, cx1, grid.AxisCenter(y0, grid.origin().y) - o.y(),
+                                      grid.AxisCenter(y1, grid.origin().y) - o.y());
+                if (c == Cover::kNone) continue;
+                FreeColumnsVoxel block;
+                for (int32_t kx = x0; kx <= x1; ++kx) {
+                  if (c == Cover::kAll) {
+                    for (int32_t ky = y0; ky <= y1; ++ky) {
+                      block.counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
+                    }
+                    continue;
+                  }
+                  const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
+                  for (int32_t ky = std::max(y0, ys0[size_t(kx - bx)]);
+                       ky <= std::min(y1, ys1[size_t(kx - bx)]); ++ky) {
+                    if (in_fan(dx, grid.AxisCenter(ky, grid.origin().y) - o.y())) {
+                      block.counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
+                    }
+                  }
+                }
+                if (!block.IsEmpty()) out.push_back({{bx, by, 0}, block});
               }
             }
-            if (y0 <= y1) lo_y = std::min(lo_y, y0), hi_y = std::max(hi_y, y1);
-          }
-          if (lo_y > hi_y) continue;
-          const double cx0 = grid.AxisCenter(x0, grid.origin().x) - o.x();
-          const double cx1 = grid.AxisCenter(x1, grid.origin().x) - o.x();
-          for (int32_t by = FreeColumnsVoxel::BlockKey(0, lo_y).y; by <= hi_y; by += kSide) {
-            const int32_t y0 = std::max(by, min_y), y1 = std::min(by + kSide - 1, max_y);
-            const Cover c = cover(cx0, cx1, grid.AxisCenter(y0, grid.origin().y) - o.y(),
-                                  grid.AxisCenter(y1, grid.origin().y) - o.y());
-            if (c == Cover::kNone) continue;
-            FreeColumnsVoxel block;
-            for (int32_t kx = x0; kx <= x1; ++kx) {
-              if (c == Cover::kAll) {
-                for (int32_t ky = y0; ky <= y1; ++ky) {
-                  block.counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
-                }
-                continue;
-              }
-              const double dx = grid.AxisCenter(kx, grid.origin().x) - o.x();
-              for (int32_t ky = std::max(y0, ys0[size_t(kx - bx)]);
-                   ky <= std::min(y1, ys1[size_t(kx - bx)]); ++ky) {
-                if (in_fan(dx, grid.AxisCenter(ky, grid.origin().y) - o.y())) {
-                  block.counts[FreeColumnsVoxel::Index(kx, ky)] = 1;
-                }
-              }
-            }
-            if (!block.IsEmpty()) out.push_back({{bx, by, 0}, block});
-          }
-        }
-      });
+          });
     }
   }
   // The camera's own column: into its block when the fan has it, else a block of its own.

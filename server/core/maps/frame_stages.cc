@@ -102,11 +102,8 @@ class CarveStage final : public FrameStage {
         grid_(grid),
         pool_(pool) {}
   perception::IntegrationStats Stage(const perception::RgbdFrame& frame, Sign sign) override {
-    // Built on the calling thread: a frame's fan takes 0.5-2.6 ms alone, and on the 2-core
-    // machine the pool's rounds cost more than they split (1 cm robot frames: 2.6 ms alone,
-    // 3.7 ms on the pool; docs/measurements/2026-12-02-free-space-blocks.md).
     pending_.Stage(sign, [&](VoxelBatch<FreeColumnsVoxel>* batch) {
-      perception::BuildFreeSpaceBatch(frame, grid_, integration_, free_space_, batch);
+      perception::BuildFreeSpaceBatch(frame, grid_, integration_, free_space_, batch, pool_);
     });
     return {};
   }
