@@ -4,10 +4,14 @@
 //
 //   build/bench/bench/map_accuracy [--dataset=DIR] [--every=1 --limit=1000]
 //       [--resolutions=0.01,0.02,0.05] [--edge_jumps=0,0.05] [--min_weights=1,2,4]
+//       [--reference=DIR]
 //
 // Reference: Open3D 0.16's ScalableTSDFVolume (truncation 4 voxels, the same voxel edge,
 // depth cut at max_depth 5 m) integrates every frame; its surface is ExtractPointCloud's
-// zero crossings. SkiMap: a map with the default options but `depth_edge_jump` (the
+// zero crossings. With --reference, Open3D integrates that dataset's frames instead: the
+// same views with other depth, e.g. a skimap-sim scene rendered again with
+// --no-depth-noise, whose surface is then the scene's true one (same frame count and
+// poses required). SkiMap: a map with the default options but `depth_edge_jump` (the
 // flying-pixel filter, swept) fed the same decoded frames through the server's own frame
 // stages (server/core/maps/frame_stages.h); its voxels are those a query returns at
 // `min_voxel_weight` (swept). Per row:
@@ -42,6 +46,9 @@ ABSL_FLAG(int, every, 1, "every n-th frame");
 ABSL_FLAG(int, limit, 1000, "at most this many frames");
 ABSL_FLAG(std::string, resolutions, "0.01,0.02,0.05", "voxel edges, metres");
 ABSL_FLAG(std::string, edge_jumps, "0,0.05", "depth_edge_jump values (0 = no filter)");
+ABSL_FLAG(
+    std::string, reference, "",
+    "the same views with other depth (e.g. ideal) for Open3D's reference; default: --dataset");
 ABSL_FLAG(std::string, min_weights, "1,2,4", "min_voxel_weight values of the query");
 
 namespace skimap::bench {
@@ -83,7 +90,24 @@ int main(int argc, char** argv) {
                      size_t(absl::GetFlag(FLAGS_limit)));
   std::vector<perception::RgbdFrame> frames;
   for (const RealFrame& f : real) frames.push_back(ToRgbdFrame(f));
-  std::printf("## %s: %zu frames\n\n", absl::GetFlag(FLAGS_dataset).c_str(), frames.size());
+  const std::string reference_dir = absl::GetFlag(FLAGS_reference);
+  const std::vector<RealFrame> reference =
+      reference_dir.empty() ? std::vector<RealFrame>{}
+                            : LoadYcbvFrames(reference_dir, size_t(absl::GetFlag(FLAGS_every)),
+                                             size_t(absl::GetFlag(FLAGS_limit)));
+  if (!reference_dir.empty()) {
+    bool same = reference.size() == real.size();
+    for (size_t i = 0; same && i < real.size(); ++i) {
+      same = real[i].api.pose().SerializeAsString() == reference[i].api.pose().SerializeAsString();
+    }
+    if (!same) {
+      std::fprintf(stderr, "--reference: not the same frames and poses as --dataset\n");
+      return 1;
+    }
+  }
+  std::printf("## %s: %zu frames; reference: Open3D of %s\n\n",
+              absl::GetFlag(FLAGS_dataset).c_str(), frames.size(),
+              reference_dir.empty() ? "the same frames" : reference_dir.c_str());
   std::printf(
       "| voxel | depth_edge_jump | pixels dropped / frame | min_voxel_weight | SkiMap voxels | "
       "Open3D surface points | accuracy | completeness | median mm |\n"
@@ -92,7 +116,7 @@ int main(int argc, char** argv) {
   for (const double res : Numbers(absl::GetFlag(FLAGS_resolutions))) {
     // The reference.
     auto volume = NewVolume(res);
-    for (const RealFrame& f : real) {
+    for (const RealFrame& f : reference_dir.empty() ? real : reference) {
       const Open3dFrame o = ToOpen3d(f, 0, 5.0);
       volume->Integrate(*o.rgbd, o.intrinsic, o.extrinsic);
     }

@@ -61,10 +61,10 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   const Eigen::Vector3d& o = frame.pose.translation;
   const double res = grid.resolution();
   const uint16_t* depth = frame.depth.pixels.data();
-  // Pieces of work (rows of rays, then x ranges of blocks), concatenated in order: the
-  // batch does not depend on the pool. The pool only takes a fan whose key box holds at
-  // least kPoolMinCells columns: the rays (at most 19 200 at stride 4) and a small fan take
-  // less time than its rounds cost on a 2-core machine (docs/benchmarks.md, "Free space").
+  // Pieces of work (x ranges of blocks), concatenated in order: the batch does not depend
+  // on the pool. The pool only takes a fan whose key box holds at least kPoolMinCells
+  // columns: the rays (at most 19 200 at stride 4) and a small fan take less time than its
+  // rounds cost on a 2-core machine (docs/benchmarks.md, "Free space").
   constexpr int64_t kPoolMinCells = int64_t{1} << 16;
   const size_t pieces = pool == nullptr ? 1 : 4 * size_t(pool->workers() + 1);
   // Angles are measured from the optical axis's azimuth (any azimuth when it looks
@@ -78,57 +78,43 @@ FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
   // base + du * u + dv * v in the world (not normalised).
   const Eigen::Vector3d du = rot.col(0) / cam.fx, dv = rot.col(1) / cam.fy;
   const Eigen::Vector3d base = rot.col(2) - du * cam.cx - dv * cam.cy;
-  struct RayPiece {
-    std::vector<FanRay> rays;
-    size_t count = 0;           // rays that reach into the slab
-    bool from_camera = true;    // every ray's slab part starts at the camera
-    bool under_camera = false;  // a ray's slab part stays in the camera's own column
-  };
-  std::vector<RayPiece> ray_pieces(pieces);
-  const size_t lattice_rows = size_t((cam.height + stride - 1) / stride);
-  ForPieces(nullptr, lattice_rows, pieces, [&](size_t piece, size_t first, size_t last) {
-    RayPiece& out = ray_pieces[piece];
-    for (int v = int(first) * stride; v < int(last) * stride; v += stride) {
-      const double yv = (v - cam.cy) / cam.fy;
-      const Eigen::Vector3d row = base + dv * v;
-      for (int u = 0; u < cam.width; u += stride) {
-        const uint16_t d = depth[size_t(v) * cam.width + u];
-        if (d == 0) continue;
-        const double z = d * frame.depth_scale;
-        if (z < integration.min_depth || z > integration.max_depth) continue;
-        const double xu = (u - cam.cx) / cam.fx;
-        const double length = z * std::sqrt(xu * xu + yv * yv + 1);
-        if (length <= res) continue;
-        // From the camera to one voxel short of the hit, clipped to the slab.
-        const Eigen::Vector3d hit = (row + du * u) * (z * (length - res) / length);
-        double t0 = 0, t1 = 1;
-        if (std::abs(hit.z()) < 1e-12) {
-          if (o.z() < options.min_z || o.z() > options.max_z) continue;
-        } else {
-          double ta = (options.min_z - o.z()) / hit.z(), tb = (options.max_z - o.z()) / hit.z();
-          if (ta > tb) std::swap(ta, tb);
-          t0 = std::max(t0, ta);
-          t1 = std::min(t1, tb);
-          if (!(t0 < t1)) continue;
-        }
-        ++out.count;
-        const double h = std::sqrt(hit.x() * hit.x() + hit.y() * hit.y());
-        if (t1 * h < 0.5 * res) {
-          out.under_camera = true;
-          continue;
-        }
-        out.from_camera = out.from_camera && t0 == 0;
-        out.rays.push_back({Wrap(FastAtan2(hit.y(), hit.x()) - reference), t0 * h, t1 * h});
-      }
-    }
-  });
   std::vector<FanRay> rays;
-  bool from_camera = true, under_camera = false;
-  for (RayPiece& p : ray_pieces) {
-    rays.insert(rays.end(), p.rays.begin(), p.rays.end());
-    stats.rays += p.count;
-    from_camera = from_camera && p.from_camera;
-    under_camera = under_camera || p.under_camera;
+  rays.reserve(size_t((cam.height + stride - 1) / stride) *
+               size_t((cam.width + stride - 1) / stride));
+  bool from_camera = true;    // every ray's slab part starts at the camera
+  bool under_camera = false;  // a ray's slab part stays in the camera's own column
+  for (int v = 0; v < cam.height; v += stride) {
+    const double yv = (v - cam.cy) / cam.fy;
+    const Eigen::Vector3d row = base + dv * v;
+    for (int u = 0; u < cam.width; u += stride) {
+      const uint16_t d = depth[size_t(v) * cam.width + u];
+      if (d == 0) continue;
+      const double z = d * frame.depth_scale;
+      if (z < integration.min_depth || z > integration.max_depth) continue;
+      const double xu = (u - cam.cx) / cam.fx;
+      const double length = z * std::sqrt(xu * xu + yv * yv + 1);
+      if (length <= res) continue;
+      // From the camera to one voxel short of the hit, clipped to the slab.
+      const Eigen::Vector3d hit = (row + du * u) * (z * (length - res) / length);
+      double t0 = 0, t1 = 1;
+      if (std::abs(hit.z()) < 1e-12) {
+        if (o.z() < options.min_z || o.z() > options.max_z) continue;
+      } else {
+        double ta = (options.min_z - o.z()) / hit.z(), tb = (options.max_z - o.z()) / hit.z();
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+        if (!(t0 < t1)) continue;
+      }
+      ++stats.rays;
+      const double h = std::sqrt(hit.x() * hit.x() + hit.y() * hit.y());
+      if (t1 * h < 0.5 * res) {
+        under_camera = true;
+        continue;
+      }
+      from_camera = from_camera && t0 == 0;
+      rays.push_back({Wrap(FastAtan2(hit.y(), hit.x()) - reference), t0 * h, t1 * h});
+    }
   }
   // The camera's own column is crossed when a ray starts there.
   int32_t camera_x = 0, camera_y = 0;

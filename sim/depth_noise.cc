@@ -51,22 +51,30 @@ cv::Mat SimulateDepth(const cv::Mat& ideal, const cv::Mat& incidence, float fx, 
       if (z < noise.min_range || z > noise.max_range) continue;
       if (noise.enabled) {
         if (c_row[x] < noise.grazing_cos && UnitUniform(rng) < noise.grazing_drop) continue;
-        float jump = 0;
+        float jump = 0, nearest = z, farthest = z;  // over the neighbours with depth
         for (int dy = -1; dy <= 1; ++dy) {
           const int yy = std::clamp(y + dy, 0, ideal.rows - 1);
           const float* r = ideal.ptr<float>(yy);
           for (int dx = -1; dx <= 1; ++dx) {
             const float n = r[std::clamp(x + dx, 0, ideal.cols - 1)];
             jump = std::max(jump, n == 0 ? 1.f : std::abs(n - z));
+            if (n != 0) nearest = std::min(nearest, n), farthest = std::max(farthest, n);
           }
         }
-        if (jump > noise.edge_jump && UnitUniform(rng) < noise.edge_drop) continue;
+        if (jump > noise.edge_jump) {
+          if (UnitUniform(rng) < noise.edge_drop) continue;
+          if (noise.edge_mix > 0 && UnitUniform(rng) < noise.edge_mix) {
+            z = nearest + UnitUniform(rng) * (farthest - nearest);
+          }
+        }
         if (UnitUniform(rng) < noise.random_drop) continue;
         const float d = z - 0.4f;
         z += Normal(rng) * (noise.axial_a + noise.axial_b * d * d);
-        const float disparity = std::round(bf / z * noise.subpixel) / noise.subpixel;
-        if (disparity <= 0) continue;
-        z = bf / disparity;
+        if (noise.subpixel > 0) {
+          const float disparity = std::round(bf / z * noise.subpixel) / noise.subpixel;
+          if (disparity <= 0) continue;
+          z = bf / disparity;
+        }
       }
       const float v = std::round(z * to_units);
       o[x] = static_cast<uint16_t>(std::clamp(v, 0.f, 65535.f));

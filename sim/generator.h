@@ -37,7 +37,8 @@ struct GeneratorOptions {
   bool depth_noise = true;           // false: ideal depth (range limits only)
   std::string noise = "kinect";      // sensor model of the test scenes (docs/sim.md): "kinect"
                                      // or "harsh" (held-out: more depth noise, shorter range,
-                                     // more dropouts, colour noise, auto-exposure drift)
+                                     // more dropouts, colour noise, auto-exposure drift) or
+                                     // "tof" (time of flight: flying pixels at depth edges)
   int motion_blur = 0;               // 0/1: off; n >= 2: n sub-frames averaged
   bool train = true;                 // write train/
   bool models_only = false;          // write the root files and models/ only

@@ -28,8 +28,9 @@ Makes a synthetic RGB-D dataset with ground truth in BOP layout (plus TUM text f
   --models-only       write camera.json, objects.json and models/ (PLY, and textured OBJ
                       under models/textured/) only
   --no-depth-noise    ideal depth (range limits only)
-  --noise MODEL       test scenes' sensor: kinect or harsh (held out: more depth noise,
-                      4 m range, more dropouts, colour noise, auto-exposure drift) [kinect]
+  --noise MODEL       test scenes' sensor: kinect, harsh (held out: more depth noise,
+                      4 m range, more dropouts, colour noise, auto-exposure drift) or tof
+                      (time of flight: flying pixels at depth edges) [kinect]
   --motion-blur N     average N sub-frames per frame (N >= 2 enables) [0]
   --threads N         frames rendered in parallel [2]
   --quiet             no progress output

@@ -89,5 +89,37 @@ TEST(DepthNoiseTest, AxialNoiseGrowsWithDistanceAndRangeIsLimited) {
   EXPECT_EQ(v5, 0);  // beyond max_range
 }
 
+// A step edge from 1 m to 2 m: with edge_mix, edge pixels that are kept take depths between
+// the two; without it (the Kinect model) none does.
+TEST(DepthNoiseTest, MixedPixelsAtEdgesLieBetweenForegroundAndBackground) {
+  cv::Mat ideal(480, 640, CV_32FC1, cv::Scalar(2.0f));
+  ideal.colRange(0, 320).setTo(1.0f);
+  const cv::Mat inc(480, 640, CV_32FC1, cv::Scalar(1.0f));
+  auto between = [&](const DepthNoise& noise) {
+    std::mt19937_64 rng(3);
+    const cv::Mat raw = SimulateDepth(ideal, inc, 525, 0.2, noise, rng);
+    int n = 0;
+    for (int v = 0; v < 480; ++v) {
+      for (int u = 317; u < 323; ++u) {
+        const double z = raw.at<uint16_t>(v, u) * 0.2e-3;
+        n += z > 1.1 && z < 1.9;
+      }
+    }
+    return n;
+  };
+  DepthNoise kinect;
+  kinect.random_drop = 0;
+  EXPECT_EQ(between(kinect), 0);
+  DepthNoise tof = kinect;
+  tof.subpixel = 0;
+  tof.edge_drop = 0.2f;
+  tof.edge_mix = 0.6f;
+  // 960 edge pixels (columns 319 and 320); 0.8 * 0.6 of them mixed, ~77 % of those more than
+  // 0.1 m from both sides: ~355 expected. Bounds: two thirds of it, and at most all of them.
+  const int mixed = between(tof);
+  EXPECT_GT(mixed, 236);
+  EXPECT_LE(mixed, 960);
+}
+
 }  // namespace
 }  // namespace skimap::sim
