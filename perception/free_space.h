@@ -56,7 +56,8 @@ struct FreeSpaceStats {
 absl::Status ValidateFreeSpaceOptions(const FreeSpaceOptions& options);
 
 // Clears *batch and fills it with the frame's free-space evidence, finalized. With a pool,
-// the rays and the columns are split over its threads; the batch is the same either way.
+// a fan of at least 65 536 columns (its key box) has its blocks split over the pool's
+// threads; the rays stay on the caller. The batch is the same either way.
 // REQUIRES: ValidateFrame(frame), ValidateIntegrationOptions(integration) and
 // ValidateFreeSpaceOptions(options) are OK.
 FreeSpaceStats BuildFreeSpaceBatch(const RgbdFrame& frame, const Grid& grid,
