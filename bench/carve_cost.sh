@@ -23,17 +23,10 @@ for arg in "$@"; do
   esac
 done
 [[ ${#sources[@]} -gt 0 ]] || sources=(../shared/data/ycbv-0000)
-port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-data_dir=$(mktemp -d)
-"$build/server/skimapd" --address="127.0.0.1:$port" --http_address= --data_dir="$data_dir" \
-  >"$data_dir/skimapd.log" 2>&1 &
-server_pid=$!
-trap 'kill -INT "$server_pid" 2>/dev/null; wait "$server_pid" 2>/dev/null || true; rm -rf "$data_dir"' EXIT
-cli=("$build/client/skimap" --server="127.0.0.1:$port")
-for _ in $(seq 50); do
-  "${cli[@]}" maps ls >/dev/null 2>&1 && break
-  sleep 0.2
-done
+skimapd=$build/server/skimapd
+skimap=$build/client/skimap
+# shellcheck source=bench/local_skimapd.sh
+source bench/local_skimapd.sh
 hz=$(getconf CLK_TCK)
 results=$(mktemp)
 run=0

@@ -29,17 +29,8 @@ done
 [[ ${#datasets[@]} -gt 0 ]] || datasets=(../shared/data/ycbv-0000)
 skimap=${skimap:-$build/client/skimap}
 skimapd=${skimapd:-$build/server/skimapd}
-port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-data_dir=$(mktemp -d)
-"$skimapd" --address="127.0.0.1:$port" --http_address= --data_dir="$data_dir" \
-  >"$data_dir/skimapd.log" 2>&1 &
-server_pid=$!
-trap 'kill -INT "$server_pid" 2>/dev/null; wait "$server_pid" 2>/dev/null || true; rm -rf "$data_dir"' EXIT
-cli=("$skimap" --server="127.0.0.1:$port")
-for _ in $(seq 50); do
-  "${cli[@]}" maps ls >/dev/null 2>&1 && break
-  sleep 0.2
-done
+# shellcheck source=bench/local_skimapd.sh
+source bench/local_skimapd.sh
 run=0
 for dataset in "${datasets[@]}"; do
   for rep in $(seq "$reps"); do
