@@ -95,6 +95,7 @@ int Grid(MapClient& client, const MapCommandFlags& flags) {
   if (const double r = flags.inflation_radius; r != 0) {
     request.set_inflation_radius(r);
   }
+  request.set_keep_seen_through(flags.keep_seen_through);
   absl::StatusOr<v1::OccupancyGrid> grid = client.GetOccupancyGrid(request);
   if (!grid.ok()) return Fail(grid.status());
   const std::string& out = flags.out;

@@ -18,12 +18,13 @@ namespace skimap::client {
 
 // The flags these commands read (skimap_main.cc defines and checks them).
 struct MapCommandFlags {
-  std::string map;              // --map: the map id of grid, heightmap, voxels, export
-  std::string out;              // -o: the output file
-  double resolution = 0.05;     // --resolution for maps create
-  double inflation_radius = 0;  // grid: --inflation_radius (0: trinary)
-  bool with_journal = false;    // export: --with-journal
-  std::string as;               // import: --as (""  keeps the file's id)
+  std::string map;                 // --map: the map id of grid, heightmap, voxels, export
+  std::string out;                 // -o: the output file
+  double resolution = 0.05;        // --resolution for maps create
+  double inflation_radius = 0;     // grid: --inflation_radius (0: trinary)
+  bool keep_seen_through = false;  // grid: --keep_seen_through
+  bool with_journal = false;       // export: --with-journal
+  std::string as;                  // import: --as (""  keeps the file's id)
 };
 
 // Runs command args[1] (args[0] is the program); returns the exit status: 0, or 1 after

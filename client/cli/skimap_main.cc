@@ -10,8 +10,9 @@
 //                                              --camera_frame, --sync_tolerance: docs/ros.md)
 //   maps create, stream and eval also take the MapOptions fields as flags
 //   (--band_min_z, --carve_free_space, ...: client/cli/map_option_flags.h)
-//   skimap grid --map=ID -o FILE.yaml [--inflation_radius=M]   ROS map_server PGM + YAML
-//                                              (trinary; raw costs with inflation)
+//   skimap grid --map=ID -o FILE.yaml [--inflation_radius=M] [--keep_seen_through]
+//                                              ROS map_server PGM + YAML (trinary; raw
+//                                              costs with inflation)
 //   skimap heightmap --map=ID -o FILE.png|FILE.tiff   (+ FILE.yaml sidecar)
 //   skimap voxels --map=ID -o FILE.ply
 //   skimap export --map=ID -o FILE [--with-journal]   the map as one export file
@@ -62,6 +63,9 @@ ABSL_FLAG(int, window, 8, "stream: unacknowledged frames in flight");
 ABSL_FLAG(double, inflation_radius, 0,
           "grid: inflate obstacles by this many metres into a cost grid (PGM in map_server's "
           "raw mode: 0 free, 1-99 cost, 100 occupied, 255 unknown); 0 = trinary");
+ABSL_FLAG(bool, keep_seen_through, false,
+          "grid: keep obstacles that a later camera view saw through (by default they are "
+          "cleared: docs/api.md, \"Seen-through obstacles\")");
 ABSL_FLAG(std::string, depth_encoding, "zstd",
           "stream: depth on the wire, lossless: zstd (the fastest for the server, the default), "
           "rvl, png16 (the dataset's files as stored) or raw");
@@ -214,6 +218,7 @@ int main(int argc, char** argv) {
       .out = absl::GetFlag(FLAGS_o),
       .resolution = ResolutionOr(0.05),
       .inflation_radius = absl::GetFlag(FLAGS_inflation_radius),
+      .keep_seen_through = absl::GetFlag(FLAGS_keep_seen_through),
       .with_journal = absl::GetFlag(FLAGS_with_journal),
       .as = absl::GetFlag(FLAGS_as)};
   if (command == "maps" || command == "nodes" || command == "health" || command == "import") {

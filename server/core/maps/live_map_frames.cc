@@ -290,8 +290,18 @@ void LiveMap::IntegrateOnWorker(std::span<FrameWrite* const> writes, Source sour
       stage(v);
     }
   }
+  // The grid's views (grid_views.h), made outside the lock, kept in order.
+  std::vector<GridViews::View> views;
+  views.reserve(valid.size());
+  for (Slot* v : valid)
+    views.push_back(GridViews::MakeView(v->write->frame->sequence(), *v->decoded));
   std::vector<WriteStats> written;
-  ApplyStages(valid.size(), last_position, nullptr, &written);
+  ApplyStages(
+      valid.size(), last_position,
+      [&](MapState& state) {
+        for (GridViews::View& view : views) state.grid_views.Offer(std::move(view));
+      },
+      &written);
   written.resize(valid.size());
   for (Slot* v : valid) index_.Add(v->write->frame->sequence(), std::move(v->entry));
   if (options_.store == nullptr) index_.LimitKeptFrames(options_.max_kept_frame_bytes);

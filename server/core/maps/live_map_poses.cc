@@ -86,8 +86,15 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
   // ... and applied in one snapshot: a reader sees every correction or none. The weights
   // are integer counts, so merged de-integration is exact.
   v1::UpdatePosesResponse response;
-  const WriteStats total =
-      ApplyStages(0, position, [&](MapState& state) { recognition_->ApplyMoves(state); });
+  const WriteStats total = ApplyStages(0, position, [&](MapState& state) {
+    recognition_->ApplyMoves(state);
+    for (int i = 0; i < request.updates_size(); ++i) {
+      Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+      moved.linear() = poses[i].rotation.toRotationMatrix();
+      moved.translation() = poses[i].translation;
+      state.grid_views.Move(request.updates(i).sequence(), moved);
+    }
+  });
   NotifyWatchers();
   NotifyChangeWatchers();
   for (int i = 0; i < request.updates_size(); ++i) {

@@ -13,6 +13,7 @@
 #include "server/core/common/page_token.h"
 #include "server/core/maps/free_space_grid.h"
 #include "server/core/maps/grid_inflation.h"
+#include "server/core/maps/grid_views.h"
 #include "server/core/maps/map_service.h"
 #include "server/core/maps/query_box.h"
 #include "skimap/map_queries.h"
@@ -194,6 +195,10 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
       return RasterStatus(computed.status(), "occupancy grid", options_.max_reply_bytes);
     }
     grid = *std::move(computed);
+    if (!request.keep_seen_through()) {
+      ClearSeenThroughCells(state.rgb, skimap::internal::MakeOccupancyBands(state.rgb.grid(), o),
+                            state.grid_views, &grid);
+    }
     MarkCarvedCells(state.free, kMinFreeFrames, &grid);
     FillGeometry(grid.geometry, state.frames, &out);
     return absl::OkStatus();

@@ -22,6 +22,7 @@
 #include "absl/container/flat_hash_map.h"
 #include "absl/container/flat_hash_set.h"
 #include "base/thread_pool.h"
+#include "server/core/maps/grid_views.h"
 #include "server/core/maps/map_config.h"
 #include "server/core/recognition/instance_log.h"
 #include "server/core/transfer/chunk_codec.h"
@@ -65,7 +66,8 @@ struct MapState {
         free({.resolution = config.resolution, .pool = pool}),
         labels({.resolution = config.recognition.labels_resolution}),
         hypotheses({.resolution = config.recognition.hypotheses_resolution}),
-        instances({.resolution = config.recognition.instances_resolution}) {}
+        instances({.resolution = config.recognition.instances_resolution}),
+        grid_views(GridViews::Options{.min_depth = config.integration.min_depth}) {}
 
   Volume rgb;
   FreeVolume free;
@@ -76,6 +78,9 @@ struct MapState {
   uint64_t journal_position = 0;  // last journal record applied (0: none, or no store)
   DirtyChunks dirty_rgb, dirty_free, dirty_labels, dirty_hypotheses, dirty_instances;
   RecognitionState recognition;
+  // The latest depth from each vantage point, for the grid's seen-through test
+  // (grid_views.h); not persisted.
+  GridViews grid_views;
   // The occupancy grid of `rgb` as last asked, recomputed per written column (queries
   // reading the state fill it; it has its own lock).
   mutable OccupancyGridCache grid_cache;
