@@ -87,6 +87,13 @@ class SkiMap {
         fn(n->key, n->value);
       }
     }
+    // The same while fn returns true: stops after the first false.
+    template <class Fn>
+    void ForEachInRangeWhile(int32_t lo, int32_t hi, Fn&& fn) const {
+      for (const ZNode* n = list_.LowerBound(lo); n != nullptr && n->key <= hi; n = n->next[0]) {
+        if (!fn(n->key, n->value)) return;
+      }
+    }
     size_t size() const { return list_.size(); }
     // Key of the highest voxel and the voxel (REQUIRES: size() > 0, always true for the
     // columns ForEachColumn hands out). O(log n).

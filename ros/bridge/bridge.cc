@@ -196,6 +196,7 @@ class Bridge::Impl {
       grid_request.set_map(map_name_);
       grid_request.set_data_encoding(v1::GRID_ENCODING_ZSTD);
       if (params_.inflation_radius > 0) grid_request.set_inflation_radius(params_.inflation_radius);
+      grid_request.set_keep_seen_through(params_.keep_seen_through);
       absl::StatusOr<v1::OccupancyGrid> grid = client_->GetOccupancyGrid(grid_request);
       if (grid.ok()) {
         map_pub_.publish(ToRosGrid(*grid, params_.fixed_frame, now));

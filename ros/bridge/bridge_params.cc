@@ -49,6 +49,7 @@ absl::StatusOr<BridgeParams> ReadParams(const ros::NodeHandle& pnh) {
   pnh.param("queue_frames", p.queue_frames, p.queue_frames);
   pnh.param("publish_rate", p.publish_rate, p.publish_rate);
   pnh.param("inflation_radius", p.inflation_radius, p.inflation_radius);
+  pnh.param("keep_seen_through", p.keep_seen_through, p.keep_seen_through);
   pnh.param("publish_height_map", p.publish_height_map, p.publish_height_map);
   pnh.param("save_dir", p.save_dir, p.save_dir);
   pnh.param("stats_file", p.stats_file, p.stats_file);

@@ -36,6 +36,7 @@ struct BridgeParams {
   int queue_frames = 2;                 // frames waiting to be sent; more are dropped
   double publish_rate = 1.0;            // Hz; 0 = never
   double inflation_radius = 0;          // metres, the grid's obstacle inflation
+  bool keep_seen_through = false;       // the grid keeps obstacles later views saw through
   bool publish_height_map = true;
   std::string save_dir;    // ~save_map writes under it; "" = the service is off
   std::string stats_file;  // at exit: counters and latencies as JSON

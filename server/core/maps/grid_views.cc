@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 #include <utility>
+#include <vector>
 
 namespace skimap::server {
 
@@ -136,32 +137,55 @@ GridViews::Verdict GridViews::DecideIn(const View& view, const Eigen::Vector3f& 
 
 void ClearSeenThroughCells(const SkiMap<RGBWeightedVoxel>& rgb,
                            const skimap::internal::OccupancyBands& b, const GridViews& views,
-                           OccupancyGrid* grid) {
+                           OccupancyGrid* grid, ThreadPool* pool) {
   if (views.size() == 0) return;
   const RasterGeometry& g = grid->geometry;
   const Grid& voxels = rgb.grid();
   const float edge = float(voxels.resolution());
-  for (int32_t j = 0; j < g.height; ++j) {
-    for (int32_t i = 0; i < g.width; ++i) {
-      int8_t& cell = grid->cells[size_t(j) * size_t(g.width) + size_t(i)];
-      if (cell != OccupancyGrid::kOccupied) continue;
-      const int32_t kx = g.key_x0 + i, ky = g.key_y0 + j;
-      bool obstacle = false, floor = false;
-      rgb.ForEachColumn(kx, kx, ky, ky, [&](int32_t, int32_t, const auto& column) {
-        column.ForEachInRange(b.floor0, b.band1, [&](int32_t kz, const RGBWeightedVoxel& v) {
-          if (obstacle || v.Weight() < b.min_weight) return;
-          if (kz <= b.floor1) {
-            floor = true;
-            return;
-          }
-          if (kz < b.band0) return;
-          const Point3 centre = voxels.Center(VoxelKey{kx, ky, kz});
-          const Eigen::Vector3f p(float(centre.x), float(centre.y), float(centre.z));
-          obstacle = views.Decide(p, edge) != GridViews::Verdict::kSeenThrough;
-        });
-      });
-      if (!obstacle) cell = floor ? OccupancyGrid::kFree : OccupancyGrid::kUnknown;
+  // One occupied column's cell: its band voxels tested lowest first, the first not seen
+  // through keeps it occupied (most columns stop at their first voxel).
+  auto column_cell = [&](int32_t kx, int32_t ky, const auto& column) {
+    bool floor = false, obstacle = false;
+    column.ForEachInRangeWhile(b.floor0, b.band1, [&](int32_t kz, const RGBWeightedVoxel& v) {
+      if (v.Weight() < b.min_weight) return true;
+      if (kz <= b.floor1) {
+        floor = true;
+        return true;
+      }
+      if (kz < b.band0) return true;
+      const Point3 centre = voxels.Center(VoxelKey{kx, ky, kz});
+      const Eigen::Vector3f p(float(centre.x), float(centre.y), float(centre.z));
+      obstacle = views.Decide(p, edge) != GridViews::Verdict::kSeenThrough;
+      return !obstacle;
+    });
+    return obstacle ? OccupancyGrid::kOccupied
+           : floor  ? OccupancyGrid::kFree
+                    : OccupancyGrid::kUnknown;
+  };
+  // Rows of cells; each run of occupied cells along x is one walk of the map's columns.
+  auto rows = [&](size_t first, size_t last) {
+    for (size_t j = first; j < last; ++j) {
+      int8_t* row = grid->cells.data() + j * size_t(g.width);
+      const int32_t ky = g.key_y0 + int32_t(j);
+      for (int32_t i = 0; i < g.width;) {
+        if (row[i] != OccupancyGrid::kOccupied) {
+          ++i;
+          continue;
+        }
+        int32_t end = i;
+        while (end < g.width && row[end] == OccupancyGrid::kOccupied) ++end;
+        rgb.ForEachColumn(g.key_x0 + i, g.key_x0 + end - 1, ky, ky,
+                          [&](int32_t kx, int32_t, const auto& column) {
+                            row[kx - g.key_x0] = column_cell(kx, ky, column);
+                          });
+        i = end;
+      }
     }
+  };
+  if (pool == nullptr || pool->workers() == 0 || g.height < 64) {
+    rows(0, size_t(g.height));
+  } else {
+    pool->ParallelFor(size_t(g.height), rows);
   }
 }
 

@@ -41,6 +41,7 @@
 #include <deque>
 
 #include "Eigen/Geometry"
+#include "base/thread_pool.h"
 #include "codec/image_codec.h"
 #include "perception/rgbd_frame.h"
 #include "skimap/map_queries.h"
@@ -96,10 +97,12 @@ class GridViews {
 
 // Frees (or makes unknown) every occupied cell of `grid` whose band voxels in `rgb` are all
 // seen through (above). `bands` are the ones `grid` was computed with.
-// REQUIRES: grid->geometry was made for rgb's grid.
+// With `pool` (not owned, may be null), rows of cells run on its threads; the answer is
+// the same. REQUIRES: grid->geometry was made for rgb's grid; not called from inside the
+// pool's tasks.
 void ClearSeenThroughCells(const SkiMap<RGBWeightedVoxel>& rgb,
                            const skimap::internal::OccupancyBands& bands, const GridViews& views,
-                           OccupancyGrid* grid);
+                           OccupancyGrid* grid, ThreadPool* pool = nullptr);
 
 }  // namespace skimap::server
 

@@ -197,7 +197,7 @@ absl::StatusOr<v1::OccupancyGrid> MapService::GetOccupancyGrid(
     grid = *std::move(computed);
     if (!request.keep_seen_through()) {
       ClearSeenThroughCells(state.rgb, skimap::internal::MakeOccupancyBands(state.rgb.grid(), o),
-                            state.grid_views, &grid);
+                            state.grid_views, &grid, o.pool);
     }
     MarkCarvedCells(state.free, kMinFreeFrames, &grid);
     FillGeometry(grid.geometry, state.frames, &out);
