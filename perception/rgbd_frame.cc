@@ -86,4 +86,30 @@ absl::Status ValidateFrame(const RgbdFrame& f) {
   return absl::OkStatus();
 }
 
+Eigen::Isometry3d ToIsometry(const CameraPose& pose) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = pose.rotation.toRotationMatrix();
+  t.translation() = pose.translation;
+  return t;
+}
+
+void HalfResolution(const DepthImage& depth, const PinholeCamera& camera, DepthImage* half,
+                    PinholeCamera* half_camera) {
+  // u_full / 2 = (fx / 2) X / Z + cx / 2: half pixel x is full pixel 2x.
+  *half_camera = {.fx = camera.fx / 2,
+                  .fy = camera.fy / 2,
+                  .cx = camera.cx / 2,
+                  .cy = camera.cy / 2,
+                  .width = depth.width / 2,
+                  .height = depth.height / 2};
+  half->width = half_camera->width;
+  half->height = half_camera->height;
+  half->pixels.resize(size_t(half->width) * size_t(half->height));
+  for (int y = 0; y < half->height; ++y) {
+    const uint16_t* row = depth.pixels.data() + size_t(2 * y) * size_t(depth.width);
+    uint16_t* out = half->pixels.data() + size_t(y) * size_t(half->width);
+    for (int x = 0; x < half->width; ++x) out[x] = row[2 * x];
+  }
+}
+
 }  // namespace skimap::perception

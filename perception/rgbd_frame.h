@@ -52,6 +52,15 @@ absl::Status ValidatePose(const CameraPose& pose);
 // Camera, pose, depth_scale and that the images match the camera size.
 absl::Status ValidateFrame(const RgbdFrame& frame);
 
+// The pose as a world <- camera transform.
+Eigen::Isometry3d ToIsometry(const CameraPose& pose);
+
+// Every second pixel of every second row of `depth` (pixel (x, y) is full pixel (2x, 2y)),
+// and `camera`'s intrinsics halved to match. REQUIRES: depth is camera.width x
+// camera.height.
+void HalfResolution(const DepthImage& depth, const PinholeCamera& camera, DepthImage* half,
+                    PinholeCamera* half_camera);
+
 }  // namespace skimap::perception
 
 #endif  // PERCEPTION_RGBD_FRAME_H_

@@ -5,35 +5,16 @@
 #include <limits>
 #include <numbers>
 #include <utility>
-#include <vector>
 
 namespace skimap::server {
 
 GridViews::View GridViews::MakeView(uint64_t sequence, const perception::RgbdFrame& frame) {
-  const perception::DepthImage& depth = frame.depth;
   View v;
   v.sequence = sequence;
   v.depth_scale = float(frame.depth_scale);
-  // Half pixel (x, y) is full pixel (2x, 2y): u_full / 2 = (fx / 2) X / Z + cx / 2.
-  v.camera = {.fx = frame.camera.fx / 2,
-              .fy = frame.camera.fy / 2,
-              .cx = frame.camera.cx / 2,
-              .cy = frame.camera.cy / 2,
-              .width = depth.width / 2,
-              .height = depth.height / 2};
-  v.depth.width = v.camera.width;
-  v.depth.height = v.camera.height;
-  v.depth.pixels.resize(size_t(v.depth.width) * size_t(v.depth.height));
-  for (int y = 0; y < v.depth.height; ++y) {
-    const uint16_t* row = depth.pixels.data() + size_t(2 * y) * size_t(depth.width);
-    uint16_t* out = v.depth.pixels.data() + size_t(y) * size_t(v.depth.width);
-    for (int x = 0; x < v.depth.width; ++x) out[x] = row[2 * x];
-  }
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = frame.pose.rotation.toRotationMatrix();
-  pose.translation() = frame.pose.translation;
-  v.world_from_camera = pose;
-  v.camera_from_world = pose.inverse().cast<float>();
+  perception::HalfResolution(frame.depth, frame.camera, &v.depth, &v.camera);
+  v.world_from_camera = perception::ToIsometry(frame.pose);
+  v.camera_from_world = v.world_from_camera.inverse().cast<float>();
   return v;
 }
 

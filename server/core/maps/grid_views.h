@@ -86,7 +86,6 @@ class GridViews {
   Verdict Decide(const Eigen::Vector3f& p, float edge) const;
 
   size_t size() const { return views_.size(); }
-  const Options& options() const { return options_; }
 
  private:
   Verdict DecideIn(const View& view, const Eigen::Vector3f& p, float edge) const;

@@ -89,10 +89,7 @@ absl::StatusOr<v1::UpdatePosesResponse> LiveMap::UpdatePosesOnWorker(
   const WriteStats total = ApplyStages(0, position, [&](MapState& state) {
     recognition_->ApplyMoves(state);
     for (int i = 0; i < request.updates_size(); ++i) {
-      Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
-      moved.linear() = poses[i].rotation.toRotationMatrix();
-      moved.translation() = poses[i].translation;
-      state.grid_views.Move(request.updates(i).sequence(), moved);
+      state.grid_views.Move(request.updates(i).sequence(), perception::ToIsometry(poses[i]));
     }
   });
   NotifyWatchers();

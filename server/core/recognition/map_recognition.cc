@@ -17,13 +17,6 @@ constexpr size_t kMaxHypothesesPerVoxel = 32;  // per object; the oldest frames'
 
 Point3 AsPoint3(const Eigen::Vector3f& p) { return {p.x(), p.y(), p.z()}; }
 
-Eigen::Isometry3d Isometry(const perception::CameraPose& p) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = p.rotation.toRotationMatrix();
-  t.translation() = p.translation;
-  return t;
-}
-
 int64_t TimestampMicros(const v1::Frame& frame) {
   if (!frame.has_timestamp()) return 0;
   return frame.timestamp().seconds() * 1000000 + frame.timestamp().nanos() / 1000;
@@ -184,7 +177,7 @@ void MapRecognition::ApplyHypothesesOnWorker(const RecognitionJob& job,
   if (!map_.refused().ok()) return;
   // Before the lock: a new vantage point's depth is copied (half resolution).
   view_keyframes_->Offer(job.sequence, job.frame->depth, job.frame->depth_scale, job.frame->camera,
-                         Isometry(pose));
+                         perception::ToIsometry(pose));
   std::set<int> objects;
   int events = 0;
   {
@@ -248,8 +241,9 @@ void MapRecognition::StageMove(uint64_t sequence, const perception::RgbdFrame& f
     recognition::AddLabels(*observed, old_pose, labels_grid(), &labels_remove_);
     recognition::AddLabels(*observed, new_pose, labels_grid(), &labels_add_);
   }
-  hypothesis_moves_[sequence] = Isometry(new_pose) * Isometry(old_pose).inverse();
-  view_keyframes_->Move(sequence, Isometry(new_pose));
+  hypothesis_moves_[sequence] =
+      perception::ToIsometry(new_pose) * perception::ToIsometry(old_pose).inverse();
+  view_keyframes_->Move(sequence, perception::ToIsometry(new_pose));
 }
 
 void MapRecognition::ApplyMoves(MapState& state) {

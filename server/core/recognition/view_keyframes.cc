@@ -22,22 +22,9 @@ bool ViewKeyframes::Offer(uint64_t sequence, const perception::DepthImage& depth
   Kept k{.sequence = sequence,
          .depth = {},
          .depth_scale = depth_scale,
-         .camera = {.fx = camera.fx / 2,
-                    .fy = camera.fy / 2,
-                    .cx = camera.cx / 2,
-                    .cy = camera.cy / 2,
-                    .width = depth.width / 2,
-                    .height = depth.height / 2},
+         .camera = {},
          .world_from_camera = world_from_camera};
-  // Half pixel (x, y) is full pixel (2x, 2y): u_full / 2 = (fx / 2) X / Z + cx / 2.
-  k.depth.width = k.camera.width;
-  k.depth.height = k.camera.height;
-  k.depth.pixels.resize(static_cast<size_t>(k.depth.width) * k.depth.height);
-  for (int y = 0; y < k.depth.height; ++y) {
-    const uint16_t* row = depth.pixels.data() + static_cast<size_t>(2 * y) * depth.width;
-    uint16_t* out = k.depth.pixels.data() + static_cast<size_t>(y) * k.depth.width;
-    for (int x = 0; x < k.depth.width; ++x) out[x] = row[2 * x];
-  }
+  perception::HalfResolution(depth, camera, &k.depth, &k.camera);
   kept_.push_back(std::move(k));
   RebuildViews();
   return true;

@@ -45,12 +45,6 @@ class CarvingTest : public ServerTest {
   }
 };
 
-int8_t CellAt(const v1::OccupancyGrid& grid, double x, double y) {
-  const int i = int(std::floor((x - grid.origin_x()) / grid.resolution()));
-  const int j = int(std::floor((y - grid.origin_y()) / grid.resolution()));
-  return static_cast<int8_t>(grid.data()[size_t(j) * grid.width() + i]);
-}
-
 TEST_F(CarvingTest, CarvingFreesCellsBetweenCameraAndWallThatShowNoFloor) {
   CreateCarvingMap("plain", false);
   CreateCarvingMap("carved", true);
@@ -64,16 +58,16 @@ TEST_F(CarvingTest, CarvingFreesCellsBetweenCameraAndWallThatShowNoFloor) {
   for (double x = 0.3; x < 1.4; x += 0.05) {
     for (double y = -0.1; y <= 0.1; y += 0.05) {
       ++near_cells;
-      EXPECT_EQ(CellAt(plain, x, y), -1) << "no floor seen at " << x << ", " << y;
-      EXPECT_EQ(CellAt(carved, x, y), 0) << "rays crossed " << x << ", " << y;
+      EXPECT_EQ(GridCell(plain, x, y), -1) << "no floor seen at " << x << ", " << y;
+      EXPECT_EQ(GridCell(carved, x, y), 0) << "rays crossed " << x << ", " << y;
     }
   }
   EXPECT_GE(near_cells, 110);  // 22 x 5 cells checked (a count of the loop, not a measure)
   for (const v1::OccupancyGrid* grid : {&plain, &carved}) {
-    EXPECT_EQ(CellAt(*grid, 2.2, 0.0), 0) << "seen floor is free either way";
-    EXPECT_EQ(CellAt(*grid, 3.02, 0.0), 100) << "the wall is occupied either way";
-    EXPECT_EQ(CellAt(*grid, 3.4, 0.0), -1) << "behind the wall is unknown either way";
-    EXPECT_EQ(CellAt(*grid, 0.5, 1.2), -1) << "outside the field of view is unknown";
+    EXPECT_EQ(GridCell(*grid, 2.2, 0.0), 0) << "seen floor is free either way";
+    EXPECT_EQ(GridCell(*grid, 3.02, 0.0), 100) << "the wall is occupied either way";
+    EXPECT_EQ(GridCell(*grid, 3.4, 0.0), -1) << "behind the wall is unknown either way";
+    EXPECT_EQ(GridCell(*grid, 0.5, 1.2), -1) << "outside the field of view is unknown";
   }
   // Carving never frees a cell with a surface in the band.
   for (size_t i = 0; i < plain.data().size(); ++i) {
@@ -108,8 +102,8 @@ TEST_F(CarvingTest, UpdatePosesMovesFreeSpaceWithoutResidue) {
   ASSERT_TRUE(client_->IntegrateFrame(frame).ok());
   const v1::OccupancyGrid moved = Grid("maps/moved"), reference = Grid("maps/reference");
   EXPECT_EQ(moved.data(), reference.data());
-  EXPECT_EQ(CellAt(moved, 0.8, 0.7), 0);
-  EXPECT_EQ(CellAt(moved, 0.8, -0.5), -1) << "free space left behind at the old pose";
+  EXPECT_EQ(GridCell(moved, 0.8, 0.7), 0);
+  EXPECT_EQ(GridCell(moved, 0.8, -0.5), -1) << "free space left behind at the old pose";
   auto a = client_->GetMap("maps/moved"), b = client_->GetMap("maps/reference");
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->stats().free_voxels(), b->stats().free_voxels());

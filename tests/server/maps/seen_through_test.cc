@@ -19,12 +19,6 @@ SceneBox Gone() {
 
 class SeenThroughTest : public ServerTest {
  protected:
-  void Create(const std::string& id) {
-    v1::CreateMapRequest request;
-    request.set_map_id(id);
-    auto map = client_->CreateMap(request);
-    ASSERT_TRUE(map.ok()) << map.status();
-  }
   void Integrate(const std::string& map, uint64_t sequence, const Eigen::Isometry3d& pose,
                  const SceneBox& box) {
     auto ack = client_->IntegrateFrame(MakeFrame(map, sequence, pose, {}, box));
@@ -44,12 +38,6 @@ class SeenThroughTest : public ServerTest {
   }
 };
 
-int8_t GridCell(const v1::OccupancyGrid& grid, double x, double y) {
-  const int i = int(std::floor((x - grid.origin_x()) / grid.resolution()));
-  const int j = int(std::floor((y - grid.origin_y()) / grid.resolution()));
-  return static_cast<int8_t>(grid.data()[size_t(j) * grid.width() + i]);
-}
-
 int CountCells(const v1::OccupancyGrid& grid, int8_t value) {
   int n = 0;
   for (char c : grid.data()) n += int8_t(c) == value;
@@ -65,7 +53,7 @@ void ForEachBoxCell(Fn&& fn) {
 }
 
 TEST_F(SeenThroughTest, AnObstacleTakenAwayIsClearedWhenALaterViewSeesTheFloorWhereItStood) {
-  Create("room");
+  CreateMap("room");
   Integrate("maps/room", 1, DefaultView(), SceneBox{});
   const v1::OccupancyGrid before = Grid("maps/room");
   EXPECT_EQ(GridCell(before, 0.5, 0.0), 100);
@@ -95,7 +83,7 @@ TEST_F(SeenThroughTest, AnObstacleThatStaysIsNeverClearedByTheViewsThatSeeIt) {
   SceneBox box;
   box.min = {0.32, -0.18, 0.0};
   box.max = {0.68, 0.18, 0.48};
-  Create("static");
+  CreateMap("static");
   for (uint64_t i = 0; i < 12; ++i) Integrate("maps/static", i + 1, OrbitView(i), box);
   const v1::OccupancyGrid cleared = Grid("maps/static"), kept = Grid("maps/static", true);
   EXPECT_GE(CountCells(kept, 100), 60);
@@ -110,7 +98,7 @@ TEST_F(SeenThroughTest, AnObstacleThatStaysIsNeverClearedByTheViewsThatSeeIt) {
 }
 
 TEST_F(SeenThroughTest, TheObstacleComesBackWhenANewerViewSeesItAgain) {
-  Create("back");
+  CreateMap("back");
   const Eigen::Vector3d aside(-1.3, 0.8, 1.5);
   const Eigen::Isometry3d side = LookingAlong(aside, Eigen::Vector3d(0.5, 0, 0.25) - aside);
   Integrate("maps/back", 1, DefaultView(), SceneBox{});
@@ -124,8 +112,8 @@ TEST_F(SeenThroughTest, UpdatePosesMovesTheViewsWithTheirFrames) {
   // Frame 2 first arrives with a pose looking away from the box; corrected, it is the
   // side view that sees the floor where the box stood. The grid must be the one of a map
   // that got the right pose at once.
-  Create("moved");
-  Create("reference");
+  CreateMap("moved");
+  CreateMap("reference");
   const Eigen::Vector3d aside(-1.3, 0.8, 1.5);
   const Eigen::Isometry3d side = LookingAlong(aside, Eigen::Vector3d(0.5, 0, 0.25) - aside);
   const Eigen::Isometry3d away = LookingAlong({-1.3, 0.8, 1.5}, {-1, 0.3, -0.6});

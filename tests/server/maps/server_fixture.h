@@ -5,6 +5,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -41,6 +43,13 @@ class ServerTest : public ::testing::Test {
   std::unique_ptr<server::Server> server_;
   std::unique_ptr<client::MapClient> client_;
 };
+
+// The cell of `grid` (raw data) holding world point (x, y).
+inline int8_t GridCell(const v1::OccupancyGrid& grid, double x, double y) {
+  const int i = int(std::floor((x - grid.origin_x()) / grid.resolution()));
+  const int j = int(std::floor((y - grid.origin_y()) / grid.resolution()));
+  return static_cast<int8_t>(grid.data()[size_t(j) * grid.width() + i]);
+}
 
 }  // namespace skimap::testing
 
