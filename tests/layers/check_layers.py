@@ -187,7 +187,8 @@ def sample_header(root, layer):
 
 
 def probe(root, target, layer, directory, args):
-    """Compiles one include of an allowed and one of a forbidden layer with `target`'s flags."""
+    """Preprocesses one include of an allowed and one of a forbidden layer with `target`'s
+    flags: the first must be found, the second not."""
     errors = []
     allowed = closure(layer) - {'proto'}
     forbidden = [l for l in LAYERS if l not in allowed and l not in (layer, 'proto')]
@@ -220,14 +221,18 @@ def probe(root, target, layer, directory, args):
         with tempfile.NamedTemporaryFile('w', suffix='.cc', delete=False) as f:
             f.write(f'#include "{header}"\n')
         try:
-            r = subprocess.run([compiler, *flags, '-fsyntax-only', f.name], cwd=directory,
-                               capture_output=True, text=True)
+            # The preprocessor alone: whether a header is visible is all the include roots
+            # decide (a tenth of the time of -fsyntax-only over the 20-odd libraries).
+            r = subprocess.run([compiler, *flags, '-E', '-o', os.devnull, f.name],
+                               cwd=directory, capture_output=True, text=True)
         finally:
             os.unlink(f.name)
-        if (r.returncode == 0) != ok:
-            what = 'compiles' if r.returncode == 0 else 'does not compile: ' + r.stderr[:300]
+        # A forbidden include must fail for the right reason: the header is not found.
+        refused = r.returncode != 0 and ('No such file' in r.stderr or 'not found' in r.stderr)
+        if (r.returncode == 0) != ok or (not ok and not refused):
+            what = 'preprocesses' if r.returncode == 0 else 'fails: ' + r.stderr[:300]
             errors.append(f'{target}: #include "{header}" {what} (expected '
-                          f'{"to compile" if ok else "a compile error"})')
+                          f'{"to be found" if ok else "not to be found"})')
     return errors
 
 
