@@ -12,8 +12,9 @@ if [[ "${1:-}" == "--fix" ]]; then
   exit 0
 fi
 # Each violation is reported as "FILE:LINE:COL: error: code should be clang-formatted".
+status=0
 report=$(printf '%s\n' "${files[@]}" |
-  xargs -d '\n' -n 40 -P 2 clang-format --dry-run -Werror 2>&1 || true)
+  xargs -d '\n' -n 40 -P 2 clang-format --dry-run -Werror 2>&1) || status=$?
 mapfile -t bad < <(grep -o '^[^:]*:[0-9]*:[0-9]*: error: code should be clang-formatted' <<<"$report" |
   cut -d: -f1 | sort -u)
 if ((${#bad[@]})); then
@@ -22,7 +23,7 @@ if ((${#bad[@]})); then
   exit 1
 fi
 # A failure that is not a violation (clang-format missing, a file it cannot read).
-if grep -q 'error' <<<"$report"; then
+if ((status)); then
   echo "format check: clang-format failed:" >&2
   echo "$report" >&2
   exit 1

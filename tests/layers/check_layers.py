@@ -229,7 +229,7 @@ def probe(root, target, layer, directory, args):
             os.unlink(f.name)
         # A forbidden include must fail for the right reason: the header is not found.
         refused = r.returncode != 0 and ('No such file' in r.stderr or 'not found' in r.stderr)
-        if (r.returncode == 0) != ok or (not ok and not refused):
+        if not (r.returncode == 0 if ok else refused):
             what = 'preprocesses' if r.returncode == 0 else 'fails: ' + r.stderr[:300]
             errors.append(f'{target}: #include "{header}" {what} (expected '
                           f'{"to be found" if ok else "not to be found"})')
