@@ -1,11 +1,11 @@
 #include "client/frame_depth.h"
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 #include "codec/rvl_codec.h"
 #include "codec/zstd_frame.h"
 
@@ -41,11 +41,9 @@ absl::Status SetFrameDepth(const uint16_t* pixels, int width, int height, v1::Fr
       break;
     case v1::DEPTH_ENCODING_PNG16: {
       const cv::Mat m(height, width, CV_16UC1, const_cast<uint16_t*>(pixels));
-      std::vector<uint8_t> png;
-      if (!cv::imencode(".png", m, png, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
-        return absl::InternalError("depth: PNG encoding failed");
-      }
-      bytes.assign(png.begin(), png.end());
+      absl::StatusOr<std::string> png = perception::EncodeImage(".png", m, {.png_compression = 1});
+      if (!png.ok()) return absl::InternalError("depth: PNG encoding failed");
+      bytes = *std::move(png);
       break;
     }
     default:

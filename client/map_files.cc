@@ -6,11 +6,11 @@
 #include <fstream>
 #include <limits>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "codec/image_files.h"
 #include "codec/ros_map_pixel.h"
 
 namespace skimap::client {
@@ -90,7 +90,9 @@ absl::Status WriteHeightMap(const v1::HeightMap& map, const std::string& path) {
       }
     }
   }
-  if (!cv::imwrite(path, image)) return absl::InternalError(absl::StrCat("cannot write ", path));
+  if (!perception::WriteImageFile(path, image).ok()) {
+    return absl::InternalError(absl::StrCat("cannot write ", path));
+  }
   const std::string yaml = absl::StrFormat(
       "image: %s\nresolution: %.9g\norigin: [%.9g, %.9g]\nwidth: %d\nheight: %d\n"
       "encoding: %s\nz_offset: %.9g\nz_scale: %s\nunknown: %s\nrow_order: top_is_max_y\n",

@@ -1,14 +1,12 @@
 #include "codec/image_codec.h"
 
-#include <turbojpeg.h>
-
 #include <bit>
 #include <cstring>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 #include "codec/image_header.h"
 #include "codec/rvl_codec.h"
 #include "codec/zstd_frame.h"
@@ -45,48 +43,18 @@ absl::StatusOr<ImageHeader> CheckHeader(const char* what, ImageFormat format,
   return h;
 }
 
-// cv::imdecode of bytes whose header was checked; an empty Mat when they do not decode.
-// OpenCV reports some failures by throwing: no exception leaves this module. (Decoding into
-// a caller's buffer through imdecode's `dst` is not used: a failure before decoding leaves
-// such a destination as it was, indistinguishable from success.)
-cv::Mat Decode(std::string_view bytes, int flags) {
-  try {
-    // This Mat aliases the bytes without copying.
-    const cv::Mat wrapped(1, static_cast<int>(bytes.size()), CV_8UC1,
-                          const_cast<char*>(bytes.data()));
-    return cv::imdecode(wrapped, flags);
-  } catch (const cv::Exception&) {
-    return cv::Mat();
+// Decodes bytes whose header was checked into the width x height `type` pixels at `data`
+// (the caller's buffer, sized for them): InvalidArgument "<what>: ..." when they do not
+// decode to exactly that.
+absl::Status DecodeInPlace(const char* what, std::string_view bytes, ImageMode mode, int width,
+                           int height, int type, void* data) {
+  cv::Mat m(height, width, type, data);
+  if (absl::Status s = DecodeImageInto(bytes, mode, &m); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(what, ": ", s.message()));
   }
-}
-
-// A TurboJPEG decompressor per thread (created on first use, destroyed with the thread):
-// frames decode on several threads at once and a handle is not thread-safe.
-tjhandle JpegDecompressor() {
-  struct Handle {
-    tjhandle h = tjInitDecompress();
-    ~Handle() {
-      if (h != nullptr) tjDestroy(h);
-    }
-  };
-  thread_local Handle handle;
-  return handle.h;
-}
-
-// JPEG (header already checked: width x height, 8-bit, 1 or 3 components) straight into
-// out->rgb as RGB with libjpeg-turbo: no BGR intermediate, no copy. A warning (e.g. bytes
-// after a complete image) still leaves every pixel decoded, as OpenCV's decoder did; a
-// fatal error refuses the image.
-absl::Status DecodeJpeg(std::string_view bytes, int width, int height, ColorImage* out) {
-  tjhandle h = JpegDecompressor();
-  if (h == nullptr) return absl::InternalError("color: cannot create a JPEG decoder");
-  out->rgb.resize(size_t(width) * size_t(height) * 3);
-  const int rc = tjDecompress2(h, reinterpret_cast<const unsigned char*>(bytes.data()),
-                               static_cast<unsigned long>(bytes.size()), out->rgb.data(), width,
-                               /*pitch=*/0, height, TJPF_RGB, /*flags=*/0);
-  if (rc != 0 && tjGetErrorCode(h) != TJERR_WARNING) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("color: JPEG does not decode: ", tjGetErrorStr2(h)));
+  if (m.cols != width || m.rows != height) return SizeMismatch(what, m.cols, m.rows, width, height);
+  if (m.type() != type || m.data != data) {
+    return absl::InvalidArgumentError(absl::StrCat(what, ": decoded to another pixel type"));
   }
   return absl::OkStatus();
 }
@@ -149,19 +117,9 @@ absl::Status DecodeDepthInto(DepthCodec codec, std::string_view bytes, int width
                                                        h->bit_depth, "-bit with ", h->channels,
                                                        " channel(s)"));
       }
-      cv::Mat m = Decode(bytes, cv::IMREAD_ANYDEPTH);
-      if (m.empty()) return absl::InvalidArgumentError("depth: PNG does not decode");
-      if (m.type() != CV_16UC1) {
-        return absl::InvalidArgumentError("depth: PNG must be 16-bit greyscale");
-      }
-      if (m.cols != width || m.rows != height) {
-        return SizeMismatch("depth", m.cols, m.rows, width, height);
-      }
       out->pixels.resize(count);
-      for (int r = 0; r < height; ++r) {
-        std::memcpy(&out->pixels[size_t(r) * width], m.ptr<uint16_t>(r), size_t(width) * 2);
-      }
-      return absl::OkStatus();
+      return DecodeInPlace("depth", bytes, ImageMode::kAnyDepth, width, height, CV_16UC1,
+                           out->pixels.data());
     }
   }
   return absl::InvalidArgumentError("depth_encoding: unknown codec");
@@ -202,18 +160,8 @@ absl::Status DecodeColorInto(ColorCodec codec, std::string_view bytes, int width
     return absl::InvalidArgumentError(
         absl::StrCat("color: JPEG has ", h->channels, " components, expected 1 or 3"));
   }
-  if (!png) return DecodeJpeg(bytes, width, height, out);
-  cv::Mat m = Decode(bytes, cv::IMREAD_COLOR);  // always 8-bit BGR
-  if (m.empty()) {
-    return absl::InvalidArgumentError("color: PNG does not decode");
-  }
-  if (m.cols != width || m.rows != height) {
-    return SizeMismatch("color", m.cols, m.rows, width, height);
-  }
   out->rgb.resize(raw_bytes);
-  cv::Mat rgb(height, width, CV_8UC3, out->rgb.data());
-  cv::cvtColor(m, rgb, cv::COLOR_BGR2RGB);
-  return absl::OkStatus();
+  return DecodeInPlace("color", bytes, ImageMode::kRgb, width, height, CV_8UC3, out->rgb.data());
 }
 
 absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes, int width,
@@ -238,11 +186,9 @@ absl::StatusOr<std::string> EncodeDepth(DepthCodec codec, const DepthImage& imag
     case DepthCodec::kPng16: {
       const cv::Mat m(image.height, image.width, CV_16UC1,
                       const_cast<uint16_t*>(image.pixels.data()));
-      std::vector<uint8_t> buf;
-      if (!cv::imencode(".png", m, buf, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
-        return absl::InternalError("depth: PNG encoding failed");
-      }
-      return std::string(buf.begin(), buf.end());
+      absl::StatusOr<std::string> png = EncodeImage(".png", m, {.png_compression = 1});
+      if (!png.ok()) return absl::InternalError(absl::StrCat("depth: ", png.status().message()));
+      return png;
     }
   }
   return absl::InvalidArgumentError("depth: unknown codec");
@@ -257,12 +203,12 @@ absl::StatusOr<std::string> EncodeColor(ColorCodec codec, const ColorImage& imag
   const cv::Mat rgb(image.height, image.width, CV_8UC3, const_cast<uint8_t*>(image.rgb.data()));
   cv::Mat bgr;
   cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
-  std::vector<uint8_t> buf;
-  const bool ok = codec == ColorCodec::kPng
-                      ? cv::imencode(".png", bgr, buf, {cv::IMWRITE_PNG_COMPRESSION, 1})
-                      : cv::imencode(".jpg", bgr, buf, {cv::IMWRITE_JPEG_QUALITY, 90});
-  if (!ok) return absl::InternalError("color: encoding failed");
-  return std::string(buf.begin(), buf.end());
+  absl::StatusOr<std::string> encoded = EncodeImage(
+      codec == ColorCodec::kPng ? ".png" : ".jpg", bgr, {.png_compression = 1, .jpeg_quality = 90});
+  if (!encoded.ok()) {
+    return absl::InternalError(absl::StrCat("color: ", encoded.status().message()));
+  }
+  return encoded;
 }
 
 }  // namespace skimap::perception

@@ -9,7 +9,8 @@
 // content size), checks the decoded result again, and returns InvalidArgument
 // ("depth: ...", "color: ...") otherwise. Depth PNGs must be 16-bit greyscale; colour
 // PNG / JPEG must have 8-bit samples; a JPEG without its EOI marker (truncated) is refused.
-// No exception from OpenCV leaves these functions.
+// PNG and JPEG decode through codec/image_files.h (libpng, libjpeg-turbo); no exception
+// leaves these functions.
 //
 // Thread safety: free functions on values; safe from any thread.
 #ifndef CODEC_IMAGE_CODEC_H_
@@ -60,8 +61,8 @@ absl::StatusOr<ColorImage> DecodeColor(ColorCodec codec, std::string_view bytes,
                                        int height);
 
 // As DecodeDepth / DecodeColor, into *out, reusing its buffer: no allocation for raw,
-// zstd and RVL depth and raw colour once the buffer has grown to the size (PNG / JPEG are
-// decoded by OpenCV into its own image first, then converted into *out). On error *out is
+// zstd and RVL depth and raw colour once the buffer has grown to the size, and PNG / JPEG
+// are decoded straight into it too. On error *out is
 // unspecified.
 absl::Status DecodeDepthInto(DepthCodec codec, std::string_view bytes, int width, int height,
                              DepthImage* out);

@@ -3,7 +3,7 @@
 //   absl::StatusOr<ImageHeader> h = ReadImageHeader(ImageFormat::kPng, bytes, "depth");
 //   if (h.ok() && h->width == 640 && h->height == 480) { ...decode... }
 //
-// Decoders trust the header to size their buffers (OpenCV throws past 2^30 pixels), so a
+// Decoders trust the header to size their buffers (image_files.h refuses past 2^27 pixels), so a
 // frame of a hundred bytes can claim 100000 x 100000 pixels. The image codecs read the
 // header first and refuse an image whose size or pixel format is not the frame's before
 // any decoder runs. PNG: the IHDR chunk (width, height, bit depth, colour type). JPEG: the

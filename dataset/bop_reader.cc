@@ -2,10 +2,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 #include "dataset/json_util.h"
 #include "dataset/reader.h"
 
@@ -285,7 +285,9 @@ absl::StatusOr<Sequence> LoadBopScene(const std::string& scene_dir,
     return absl::InvalidArgumentError(absl::StrCat(cam_path, ": no images"));
   }
   if (!camera) {  // image size from the first rgb image header
-    cv::Mat first = cv::imread(seq.frames[0].rgb_path, cv::IMREAD_UNCHANGED);
+    const cv::Mat first =
+        perception::ReadImageFile(seq.frames[0].rgb_path, perception::ImageMode::kUnchanged)
+            .value_or(cv::Mat());
     if (first.empty()) {
       return absl::NotFoundError(absl::StrCat(seq.frames[0].rgb_path, ": cannot read image"));
     }

@@ -1,7 +1,7 @@
 // LoadFrameImages and DepthToMeters. See reader.h for the contract.
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 #include "dataset/reader.h"
 
 namespace skimap::dataset {
@@ -19,13 +19,15 @@ absl::Status CheckSize(const cv::Mat& m, const Frame& f, const std::string& path
 
 absl::StatusOr<FrameImages> LoadFrameImages(const Frame& frame, bool load_masks) {
   FrameImages out;
-  out.rgb = cv::imread(frame.rgb_path, cv::IMREAD_COLOR);
+  out.rgb =
+      perception::ReadImageFile(frame.rgb_path, perception::ImageMode::kColor).value_or(cv::Mat());
   if (out.rgb.empty()) {
     return absl::NotFoundError(absl::StrCat(frame.rgb_path, ": cannot read rgb image"));
   }
   if (absl::Status s = CheckSize(out.rgb, frame, frame.rgb_path); !s.ok()) return s;
   if (!frame.depth_path.empty()) {
-    out.depth = cv::imread(frame.depth_path, cv::IMREAD_UNCHANGED);
+    out.depth = perception::ReadImageFile(frame.depth_path, perception::ImageMode::kUnchanged)
+                    .value_or(cv::Mat());
     if (out.depth.empty()) {
       return absl::NotFoundError(absl::StrCat(frame.depth_path, ": cannot read depth image"));
     }
@@ -40,7 +42,7 @@ absl::StatusOr<FrameImages> LoadFrameImages(const Frame& frame, bool load_masks)
     for (size_t i = 0; i < frame.objects.size(); ++i) {
       const std::string& p = frame.objects[i].mask_visib_path;
       if (p.empty()) continue;
-      out.masks[i] = cv::imread(p, cv::IMREAD_GRAYSCALE);
+      out.masks[i] = perception::ReadImageFile(p, perception::ImageMode::kGrey).value_or(cv::Mat());
       if (out.masks[i].empty()) {
         return absl::NotFoundError(absl::StrCat(p, ": cannot read mask image"));
       }

@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 
 namespace skimap::sim {
 
@@ -157,7 +157,7 @@ absl::Status WriteObj(const Mesh& mesh, const std::string& path) {
   if (!mtl) return absl::InternalError(absl::StrCat((dir / mtl_name).string(), ": cannot open"));
   for (size_t i = 0; i < mesh.textures.size(); ++i) {
     const std::string png = absl::StrCat(stem, "_tex", i, ".png");
-    if (!cv::imwrite((dir / png).string(), *mesh.textures[i])) {
+    if (!perception::WriteImageFile((dir / png).string(), *mesh.textures[i]).ok()) {
       return absl::InternalError(absl::StrCat((dir / png).string(), ": write failed"));
     }
     mtl << "newmtl tex" << i << "\nKd 1 1 1\nmap_Kd " << png << "\n";

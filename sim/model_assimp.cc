@@ -11,10 +11,10 @@
 #include <assimp/Importer.hpp>
 #include <cmath>
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "codec/image_files.h"
 
 namespace skimap::sim {
 namespace {
@@ -92,9 +92,10 @@ Texture MaterialTexture(const aiScene& scene, const aiMaterial& material, const 
   if (!found) return nullptr;
   if (const aiTexture* embedded = scene.GetEmbeddedTexture(name.C_Str())) {
     if (embedded->mHeight == 0) {  // compressed (PNG, JPEG): mWidth bytes
-      const cv::Mat bytes(1, int(embedded->mWidth), CV_8UC1,
-                          const_cast<aiTexel*>(embedded->pcData));
-      return Raw(cv::imdecode(bytes, cv::IMREAD_COLOR), budget);
+      const std::string_view bytes(reinterpret_cast<const char*>(embedded->pcData),
+                                   embedded->mWidth);
+      return Raw(perception::DecodeImage(bytes, perception::ImageMode::kColor).value_or(cv::Mat()),
+                 budget);
     }
     // Raw BGRA texels.
     cv::Mat bgra(int(embedded->mHeight), int(embedded->mWidth), CV_8UC4,
@@ -103,7 +104,9 @@ Texture MaterialTexture(const aiScene& scene, const aiMaterial& material, const 
   }
   const fs::path file = dir / name.C_Str();
   if (!InsideFolder(file, dir)) return nullptr;
-  return Raw(cv::imread(file.string(), cv::IMREAD_COLOR), budget);
+  return Raw(
+      perception::ReadImageFile(file.string(), perception::ImageMode::kColor).value_or(cv::Mat()),
+      budget);
 }
 
 // The material's diffuse colour as a one-texel texture (white when it has none).

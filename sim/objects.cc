@@ -5,10 +5,10 @@
 #include <cmath>
 #include <filesystem>
 #include <opencv2/features2d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 
 namespace skimap::sim {
 namespace {
@@ -98,7 +98,7 @@ namespace {
 
 // The picture in `file` if usable as a texture (colour, at least 64x64 px), else empty.
 cv::Mat ReadTexturePicture(const std::string& file) {
-  cv::Mat img = cv::imread(file, cv::IMREAD_COLOR);
+  cv::Mat img = perception::ReadImageFile(file, perception::ImageMode::kColor).value_or(cv::Mat());
   if (img.empty() || img.cols < 64 || img.rows < 64) return {};
   // Skip nearly grey images (calibration boards, masks): they make poor object textures.
   cv::Mat hsv;

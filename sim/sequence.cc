@@ -5,12 +5,12 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 #include "dataset/writer.h"
 
 namespace skimap::sim {
@@ -18,16 +18,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-const std::vector<int> kPng = {cv::IMWRITE_PNG_COMPRESSION, 3};
-
 absl::Status Write(const std::string& path, const cv::Mat& img) {
-  bool ok = false;
-  try {  // OpenCV reports some I/O errors by exception; keep them inside this module.
-    ok = cv::imwrite(path, img, kPng);
-  } catch (const cv::Exception&) {
-    ok = false;
+  if (!perception::WriteImageFile(path, img, {.png_compression = 3}).ok()) {
+    return absl::InternalError(absl::StrCat(path, ": cannot write image"));
   }
-  return ok ? absl::OkStatus() : absl::InternalError(absl::StrCat(path, ": cannot write image"));
+  return absl::OkStatus();
 }
 
 Eigen::Isometry3f Interpolate(const Eigen::Isometry3f& a, const Eigen::Isometry3f& b, float t) {

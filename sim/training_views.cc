@@ -2,11 +2,11 @@
 #include "sim/training_views.h"
 
 #include <algorithm>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "codec/image_files.h"
 #include "dataset/writer.h"
 #include "sim/depth_noise.h"
 #include "sim/rasterizer.h"
@@ -26,12 +26,10 @@ cv::Point RandomPoint(cv::Size size, std::mt19937_64& rng) {
 }
 
 absl::Status WritePng(const std::string& path, const cv::Mat& image) {
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path, image);
-  } catch (const cv::Exception&) {
+  if (!perception::WriteImageFile(path, image).ok()) {
+    return absl::InternalError(absl::StrCat(path, ": cannot write"));
   }
-  return ok ? absl::OkStatus() : absl::InternalError(absl::StrCat(path, ": cannot write"));
+  return absl::OkStatus();
 }
 
 }  // namespace

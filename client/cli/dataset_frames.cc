@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 #include "dataset/reader.h"
 
 namespace skimap::client {
@@ -90,8 +90,8 @@ absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string&
     out.set_depth_encoding(v1::DEPTH_ENCODING_PNG16);
     out.set_depth(*std::move(depth));
   } else {
-    const cv::Mat wrapped(1, static_cast<int>(depth->size()), CV_8UC1, depth->data());
-    const cv::Mat pixels = cv::imdecode(wrapped, cv::IMREAD_ANYDEPTH);
+    const cv::Mat pixels =
+        perception::DecodeImage(*depth, perception::ImageMode::kAnyDepth).value_or(cv::Mat());
     if (pixels.type() != CV_16UC1 || !pixels.isContinuous()) {
       return absl::InvalidArgumentError(
           absl::StrCat(f.depth_path, ": depth is not a 16-bit greyscale PNG"));

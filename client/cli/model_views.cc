@@ -1,9 +1,8 @@
 #include "client/cli/model_views.h"
 
-#include <opencv2/imgcodecs.hpp>
-
 #include "absl/strings/str_cat.h"
 #include "client/cli/dataset_frames.h"
+#include "codec/image_files.h"
 #include "dataset/reader.h"
 #include "sim/model_io.h"
 #include "sim/training_views.h"
@@ -12,11 +11,9 @@ namespace skimap::client {
 namespace {
 
 absl::StatusOr<std::string> Png(const cv::Mat& image, const std::string& what) {
-  std::vector<uint8_t> bytes;
-  if (!cv::imencode(".png", image, bytes)) {
-    return absl::InternalError(absl::StrCat("cannot encode the ", what, " as PNG"));
-  }
-  return std::string(bytes.begin(), bytes.end());
+  absl::StatusOr<std::string> bytes = perception::EncodeImage(".png", image);
+  if (!bytes.ok()) return absl::InternalError(absl::StrCat("cannot encode the ", what, " as PNG"));
+  return bytes;
 }
 
 }  // namespace

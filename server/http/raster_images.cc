@@ -4,10 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "codec/image_files.h"
 #include "codec/ros_map_pixel.h"
 
 namespace skimap::server {
@@ -26,11 +26,11 @@ absl::Status CheckRaster(uint32_t width, uint32_t height, size_t cells, const ch
 }
 
 absl::StatusOr<std::string> Encode(const cv::Mat& image, const char* extension) {
-  std::vector<uchar> bytes;
-  if (!cv::imencode(extension, image, bytes)) {
+  absl::StatusOr<std::string> bytes = perception::EncodeImage(extension, image);
+  if (!bytes.ok()) {
     return absl::InternalError(absl::StrCat("cannot encode the image as ", extension));
   }
-  return std::string(bytes.begin(), bytes.end());
+  return bytes;
 }
 
 }  // namespace

@@ -9,11 +9,11 @@
 
 #include <filesystem>
 #include <fstream>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
 #include "dataset/reader.h"
+#include "tests/common/images.h"
 
 namespace skimap::client {
 namespace {
@@ -31,8 +31,10 @@ class TumFolder {
     std::ofstream rgb(dir_ / "rgb.txt"), depth(dir_ / "depth.txt"), poses(dir_ / "groundtruth.txt");
     for (int i = 0; i < count; ++i) {
       const std::string file = std::to_string(i) + ".png";
-      cv::imwrite((dir_ / "rgb" / file).string(), cv::Mat(6, 8, CV_8UC3, cv::Scalar(i, i, i)));
-      cv::imwrite((dir_ / "depth" / file).string(), cv::Mat(6, 8, CV_16UC1, cv::Scalar(i + 1)));
+      skimap::testing::ImWrite((dir_ / "rgb" / file).string(),
+                               cv::Mat(6, 8, CV_8UC3, cv::Scalar(i, i, i)));
+      skimap::testing::ImWrite((dir_ / "depth" / file).string(),
+                               cv::Mat(6, 8, CV_16UC1, cv::Scalar(i + 1)));
       rgb << i << ".0 rgb/" << file << "\n";
       depth << i << ".0 depth/" << file << "\n";
       poses << i << ".0 " << i << " 0 0 0 0 0 1\n";

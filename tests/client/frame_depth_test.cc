@@ -5,11 +5,11 @@
 
 #include <gtest/gtest.h>
 
-#include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <vector>
 
 #include "server/core/maps/frame_decode.h"
+#include "tests/common/images.h"
 
 namespace skimap::client {
 namespace {
@@ -52,8 +52,8 @@ TEST(FrameDepthTest, TheDefaultIsZstd) {
 }
 
 TEST(FrameDepthTest, RealSensorDepthDecodesExactlyInEveryEncoding) {
-  const cv::Mat png =
-      cv::imread(SKIMAP_YCBV_DIR "/test/000000/depth/000000.png", cv::IMREAD_ANYDEPTH);
+  const cv::Mat png = skimap::testing::ImRead(SKIMAP_YCBV_DIR "/test/000000/depth/000000.png",
+                                              skimap::testing::ImageMode::kAnyDepth);
   ASSERT_EQ(png.type(), CV_16UC1);
   const std::vector<uint16_t> pixels(png.begin<uint16_t>(), png.end<uint16_t>());
   size_t zeros = 0;

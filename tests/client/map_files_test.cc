@@ -8,10 +8,10 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
 
+#include "tests/common/images.h"
 #include "tests/common/test_temp_dir.h"
 
 namespace skimap::client {
@@ -143,7 +143,7 @@ TEST(MapFilesTest, HeightMapPngStoresMillimetresAboveOffsetAndZeroForUnknown) {
   map.add_heights(std::nanf(""));
   const std::string path = TempPath("height.png");
   ASSERT_TRUE(WriteHeightMap(map, path).ok());
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  cv::Mat image = skimap::testing::ImRead(path, skimap::testing::ImageMode::kUnchanged);
   ASSERT_EQ(image.type(), CV_16UC1);
   std::map<std::string, std::string> yaml = ParseYaml(Slurp(TempPath("height.yaml")));
   const double offset = std::stod(yaml["z_offset"]), scale = std::stod(yaml["z_scale"]);

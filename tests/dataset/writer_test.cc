@@ -4,9 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 
 #include "dataset/reader.h"
+#include "tests/common/images.h"
 
 namespace skimap::dataset {
 namespace {
@@ -50,8 +50,10 @@ TEST(BopWriterTest, SceneRoundTripsThroughReader) {
     a.px_count_visib = 11;
     f.objects.push_back(a);
     w.AddFrame(f);
-    cv::imwrite(BopRgbPath(w.dir(), id), cv::Mat(48, 64, CV_8UC3, cv::Scalar(1, 2, 3)));
-    cv::imwrite(BopDepthPath(w.dir(), id), cv::Mat(48, 64, CV_16UC1, cv::Scalar(5000)));
+    skimap::testing::ImWrite(BopRgbPath(w.dir(), id),
+                             cv::Mat(48, 64, CV_8UC3, cv::Scalar(1, 2, 3)));
+    skimap::testing::ImWrite(BopDepthPath(w.dir(), id),
+                             cv::Mat(48, 64, CV_16UC1, cv::Scalar(5000)));
   }
   ASSERT_TRUE(w.Finish().ok());
 

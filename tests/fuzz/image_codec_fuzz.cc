@@ -2,13 +2,15 @@
 // header reader (image_header.h).
 //
 // Input: u8 codec (0-2 depth raw / PNG16 / zstd, 3-5 colour raw / PNG / JPEG, 6-7 the PNG /
-// JPEG header alone, 8 depth RVL), u16 width, u16 height (each taken modulo 512, plus 1), then the
-// image bytes. A decoded image must have the asked size; a lossless codec must give the
-// same image back after encoding it again.
+// JPEG header alone, 8 depth RVL, 9-13 image_files.h's DecodeImage in each ImageMode), u16 width,
+// u16 height (each taken modulo 512, plus 1), then the image bytes. A decoded image must have the
+// asked size; a lossless codec must give the same image back after encoding it again; an image file
+// that decodes must have the mode's pixel type and encode as PNG.
 #include <cstdint>
 #include <string>
 
 #include "codec/image_codec.h"
+#include "codec/image_files.h"
 #include "codec/image_header.h"
 #include "tests/fuzz/fuzz_input.h"
 
@@ -45,13 +47,36 @@ void Color(ColorCodec codec, std::string_view bytes, int width, int height) {
   if (codec != ColorCodec::kJpeg && back->rgb != c->rgb) Fail("colour codec round trip differs");
 }
 
+void File(perception::ImageMode mode, std::string_view bytes) {
+  absl::StatusOr<cv::Mat> m = perception::DecodeImage(bytes, mode);
+  if (!m.ok()) return;
+  if (m->empty()) Fail("an image file decoded to an empty matrix");
+  const bool eight = m->depth() == CV_8U;
+  switch (mode) {
+    case perception::ImageMode::kColor:
+    case perception::ImageMode::kRgb:
+      if (m->type() != CV_8UC3) Fail("colour mode gave another pixel type");
+      break;
+    case perception::ImageMode::kGrey:
+      if (m->type() != CV_8UC1) Fail("grey mode gave another pixel type");
+      break;
+    case perception::ImageMode::kAnyDepth:
+      if (m->channels() != 1) Fail("any-depth mode gave more than one channel");
+      break;
+    case perception::ImageMode::kUnchanged:
+      if (!eight && m->depth() != CV_16U) Fail("a decoded image is neither 8- nor 16-bit");
+      break;
+  }
+  if (!perception::EncodeImage(".png", *m).ok()) Fail("a decoded image does not encode as PNG");
+}
+
 }  // namespace
 }  // namespace skimap::fuzz
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace skimap::fuzz;
   FuzzInput in(data, size);
-  const int which = in.U8() % 9;
+  const int which = in.U8() % 14;
   const int width = in.U16() % 512 + 1;
   const int height = in.U16() % 512 + 1;
   const std::string_view bytes = in.Rest();
@@ -76,6 +101,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       break;
     case 8:
       Depth(DepthCodec::kRvl, bytes, width, height);
+      break;
+    case 9:
+    case 10:
+    case 11:
+    case 12:
+    case 13:
+      File(static_cast<skimap::perception::ImageMode>(which - 9), bytes);
       break;
     default: {
       const auto format = which == 6 ? skimap::perception::ImageFormat::kPng

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "codec/image_codec.h"
+#include "codec/image_files.h"
 #include "perception/objects/features.h"
 #include "perception/objects/random_forest.h"
 #include "server/core/maps/frame_index.h"
@@ -77,6 +78,14 @@ void ImageSeeds() {
         Byte(6) + size + *perception::EncodeColor(perception::ColorCodec::kPng, Color()));
   Write("image_codec", "jpeg_header",
         Byte(7) + size + *perception::EncodeColor(perception::ColorCodec::kJpeg, Color()));
+  // image_files.h's DecodeImage (codec 9 + ImageMode): a 16-bit PNG at any depth, a colour
+  // JPEG as colour, a PGM unchanged.
+  Write("image_codec", "file_png16",
+        Byte(9 + 4) + size + *perception::EncodeDepth(perception::DepthCodec::kPng16, Depth()));
+  Write("image_codec", "file_jpeg",
+        Byte(9 + 1) + size + *perception::EncodeColor(perception::ColorCodec::kJpeg, Color()));
+  Write("image_codec", "file_pgm",
+        Byte(9) + size + *perception::EncodeImage(".pgm", cv::Mat(kH, kW, CV_8UC1, cv::Scalar(9))));
 }
 
 v1::Frame Frame(const std::string& map, uint64_t sequence, v1::DepthEncoding de,

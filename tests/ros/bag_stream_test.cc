@@ -20,6 +20,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/map_client.h"
+#include "tests/common/images.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/common/voxel_set.h"
 #include "tests/ros/reference_voxels.h"
@@ -147,7 +148,7 @@ TEST_F(BagStreamTest, CompressedDepthBagsStreamTheVoxelsOfTheirFrames) {
           sensor_msgs::CompressedImage jpeg;
           jpeg.header = DepthMessage(f).header;
           jpeg.format = "16UC1; jpeg compressed mono8";
-          cv::imencode(".jpg", cv::Mat(8, 8, CV_8UC1, cv::Scalar(7)), jpeg.data);
+          ImEncode(".jpg", cv::Mat(8, 8, CV_8UC1, cv::Scalar(7)), &jpeg.data);
           bag.write("/camera/depth_registered/image_raw/compressed", f.stamp, jpeg);
         }
         bag.write("/camera/color/image_raw", f.stamp, ColorMessage(f));
@@ -374,10 +375,12 @@ TEST_F(BagStreamTest, CorruptRos1BagsNeverCrashTheCli) {
 }
 
 // A 45-byte bag on which Debian's rosbag library reads past its buffer (ros::Header::parse;
-// found by fuzzing on 2026-11-29). Where the read faults (the ASan build: SIGSEGV) the CLI's
-// child-process check refuses the bag by name; where it reads stray heap bytes instead (the
-// release build) the library throws and the bag is refused as unreadable. Either way the
-// CLI itself does not die and nothing is streamed.
+// found by fuzzing on 2026-11-29). Whether the read faults depends on what lies past the
+// buffer, not on our build (the library is not instrumented): where it faults the CLI's
+// child-process check refuses the bag by name as crashed (the ASan build did until its
+// processes stopped loading OpenCV's imgcodecs, 2026-12-03); where it reads stray heap bytes
+// the library throws and the bag is refused as unreadable. Either way the CLI itself does
+// not die and nothing is streamed.
 TEST_F(BagStreamTest, ABagThatCrashesTheRosbagLibraryIsRefusedByName) {
   const std::string bag = (dir_ / "overread.bag").string();
   fs::copy_file(fs::path(SKIMAP_ROS_TEST_DATA) / "rosbag_header_overread.bag", bag);
@@ -390,11 +393,6 @@ TEST_F(BagStreamTest, ABagThatCrashesTheRosbagLibraryIsRefusedByName) {
   const bool unreadable =
       run.output.find("overread.bag: not a readable ROS 1 bag") != std::string::npos;
   EXPECT_TRUE(crashed || unreadable) << run.output;
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-  EXPECT_TRUE(crashed) << run.output;  // the over-read faults under ASan
-#endif
-#endif
   EXPECT_EQ(Frames("overread"), 0u);
   EXPECT_TRUE(server_.Running());
 }

@@ -30,6 +30,7 @@
 #include "skimap_ros/InstancesInSphere.h"
 #include "skimap_ros/SaveMap.h"
 #include "tests/common/free_port.h"
+#include "tests/common/images.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/common/spawn.h"
 #include "tests/common/voxel_set.h"
@@ -196,7 +197,7 @@ class BridgeTest : public ::testing::Test {
         cv::Mat rgb_image(f.height, f.width, CV_8UC3, const_cast<uint8_t*>(f.rgb.data()));
         cv::Mat bgr;
         cv::cvtColor(rgb_image, bgr, cv::COLOR_RGB2BGR);
-        cv::imencode(".png", bgr, png.data);
+        ImEncode(".png", bgr, &png.data);
         rgb.publish(png);
       } else {
         rgb.publish(ColorMessage(f));

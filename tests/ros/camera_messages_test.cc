@@ -11,6 +11,7 @@
 #include "ros/bag/compressed_depth.h"
 #include "ros/bag/rectify.h"
 #include "ros/bag/ros_frames.h"
+#include "tests/common/images.h"
 #include "tests/ros/ros_test_data.h"
 
 namespace skimap::testing {
@@ -119,7 +120,7 @@ TEST(CompressedDepthTest, HostileMessagesAreRefusedByTopicAndField) {
                    with(good,
                         [&](auto& m) {
                           std::vector<uint8_t> png;
-                          cv::imencode(".png", cv::Mat(4, 4, CV_8UC1, 9), png);
+                          ImEncode(".png", cv::Mat(4, 4, CV_8UC1, 9), &png);
                           m.data.resize(12);
                           m.data.insert(m.data.end(), png.begin(), png.end());
                         }),
@@ -176,7 +177,7 @@ bag::RosFrame MakeFrame(const MmFrame& f, const sensor_msgs::CameraInfo& info, b
     compressed.format = "rgb8; jpeg compressed bgr8";
     cv::Mat rgb(f.height, f.width, CV_8UC3, const_cast<uint8_t*>(f.rgb.data())), bgr;
     cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
-    cv::imencode(".jpg", bgr, compressed.data);
+    ImEncode(".jpg", bgr, &compressed.data);
     c.compressed = &compressed;
   } else {
     c.image = &color;

@@ -16,13 +16,13 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "ros/bag/cdr_messages.h"
+#include "tests/common/images.h"
 
 namespace skimap::bag {
 namespace {
@@ -203,7 +203,8 @@ void McapReaderTest::CheckBag(std::string_view bytes, int frames, bool raw_color
     } else if (m.channel->topic == "/camera/depth/image_raw") {
       sensor_msgs::Image image;
       EXPECT_TRUE(DecodeCdr(m.data, &image).ok());
-      const cv::Mat png = cv::imread(kScene + "/depth/" + ImageName(id), cv::IMREAD_UNCHANGED);
+      const cv::Mat png = skimap::testing::ImRead(kScene + "/depth/" + ImageName(id),
+                                                  skimap::testing::ImageMode::kUnchanged);
       EXPECT_EQ(png.type(), CV_16UC1);
       EXPECT_EQ(image.encoding, depth_16uc1 ? "16UC1" : "32FC1");
       EXPECT_EQ(image.header.frame_id, "camera_color_optical_frame");
@@ -228,7 +229,9 @@ void McapReaderTest::CheckBag(std::string_view bytes, int frames, bool raw_color
     } else if (m.channel->topic == color_topic && raw_color) {
       sensor_msgs::Image image;
       EXPECT_TRUE(DecodeCdr(m.data, &image).ok());
-      cv::Mat bgr = cv::imread(kScene + "/rgb/" + ImageName(id), cv::IMREAD_COLOR), rgb;
+      cv::Mat bgr = skimap::testing::ImRead(kScene + "/rgb/" + ImageName(id),
+                                            skimap::testing::ImageMode::kColor),
+              rgb;
       cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
       EXPECT_EQ(image.encoding, "rgb8");
       const cv::Mat got(image.height, image.width, CV_8UC3, image.data.data(), image.step);

@@ -20,7 +20,6 @@
 #include <cmath>
 #include <cstring>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
@@ -29,6 +28,7 @@
 #include "codec/rvl_codec.h"
 #include "dataset/reader.h"
 #include "skimap/v1/frames.pb.h"
+#include "tests/common/images.h"
 
 namespace skimap::testing {
 
@@ -63,8 +63,8 @@ inline std::vector<MmFrame> LoadMmFrames(const std::string& dir) {
     MmFrame m;
     m.index = static_cast<int>(i);
     m.stamp = ros::Time(1000.0 + i / 30.0);
-    cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_ANYDEPTH);
-    cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
+    cv::Mat depth = ImRead(f.depth_path, ImageMode::kAnyDepth);
+    cv::Mat bgr = ImRead(f.rgb_path, ImageMode::kColor);
     m.width = depth.cols;
     m.height = depth.rows;
     m.depth_mm.resize(size_t(m.width) * m.height);
@@ -147,7 +147,7 @@ inline sensor_msgs::CompressedImage CompressedColorMessage(const MmFrame& f) {
   cv::Mat bgr;
   cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
   std::vector<uint8_t> jpeg;
-  cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
+  ImEncode(".jpg", bgr, &jpeg, {.jpeg_quality = 80});
   m.data = std::move(jpeg);
   return m;
 }
@@ -186,7 +186,7 @@ inline sensor_msgs::CompressedImage CompressedDepthMessage(const MmFrame& f,
   } else {
     cv::Mat image(f.height, f.width, CV_16UC1, pixels.data());
     std::vector<uint8_t> png;
-    cv::imencode(".png", image, png);
+    ImEncode(".png", image, &png);
     m.data.insert(m.data.end(), png.begin(), png.end());
   }
   return m;

@@ -10,11 +10,11 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "sim/mesh.h"
 #include "sim/objects.h"
 #include "sim/training_views.h"
+#include "tests/common/images.h"
 
 namespace skimap::sim {
 namespace {
@@ -155,7 +155,8 @@ TEST_F(ModelIoTest, ViewEffectsPutTheModelInACameraLikeScene) {
             50.0 * cv::countNonZero(~views[0].mask));
   if (const char* dump = std::getenv("SKIMAP_DUMP_VIEWS")) {  // to look at them
     for (size_t i = 0; i < views.size(); ++i) {
-      cv::imwrite(std::string(dump) + "/view" + std::to_string(i) + ".png", views[i].bgr);
+      skimap::testing::ImWrite(std::string(dump) + "/view" + std::to_string(i) + ".png",
+                               views[i].bgr);
     }
   }
 }
@@ -206,7 +207,8 @@ TEST_F(ModelIoTest, HostileFilesAreRefusedByName) {
 // it leaves the material's own colour.
 TEST_F(ModelIoTest, ATextureOutsideTheModelsFolderIsNotRead) {
   fs::create_directories(dir_ / "model");
-  ASSERT_TRUE(cv::imwrite(Path("outside.png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 255))));
+  ASSERT_TRUE(
+      skimap::testing::ImWrite(Path("outside.png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 255))));
   Write("model/m.mtl", "newmtl a\nKd 0 1 0\nmap_Kd ../outside.png\n");
   Write("model/m.obj",
         "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\n"

@@ -8,8 +8,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "opencv2/core.hpp"
-#include "opencv2/imgcodecs.hpp"
 #include "sim/objects.h"
+#include "tests/common/images.h"
 
 namespace skimap::sim {
 namespace {
@@ -25,7 +25,8 @@ std::string PictureFolder(const std::string& name, const std::vector<cv::Size>& 
   for (size_t i = 0; i < sizes.size(); ++i) {
     cv::Mat img(sizes[i], CV_8UC3);
     rng.fill(img, cv::RNG::UNIFORM, 0, 256);
-    cv::imwrite((dir / (std::string(1, static_cast<char>('a' + i)) + ".png")).string(), img);
+    skimap::testing::ImWrite((dir / (std::string(1, static_cast<char>('a' + i)) + ".png")).string(),
+                             img);
   }
   return dir.string();
 }
@@ -40,7 +41,7 @@ TEST(TexturesTest, EnoughPicturesAreLoadedWhole) {
   ASSERT_TRUE(t.ok()) << t.status();
   ASSERT_EQ(t->size(), 2u);
   EXPECT_EQ((*t)[0]->size(), cv::Size(200, 120));
-  EXPECT_TRUE(SamePixels(*(*t)[0], cv::imread(dir + "/a.png")));
+  EXPECT_TRUE(SamePixels(*(*t)[0], skimap::testing::ImRead(dir + "/a.png")));
 }
 
 TEST(TexturesTest, TooFewPicturesAreCutIntoTilesInReadingOrder) {
@@ -48,7 +49,8 @@ TEST(TexturesTest, TooFewPicturesAreCutIntoTilesInReadingOrder) {
   absl::StatusOr<std::vector<Texture>> t = LoadTextures(dir, 256, 8);  // 2 x 2 x 2 tiles
   ASSERT_TRUE(t.ok()) << t.status();
   ASSERT_EQ(t->size(), 8u);
-  const cv::Mat a = cv::imread(dir + "/a.png"), b = cv::imread(dir + "/b.png");
+  const cv::Mat a = skimap::testing::ImRead(dir + "/a.png"),
+                b = skimap::testing::ImRead(dir + "/b.png");
   EXPECT_TRUE(SamePixels(*(*t)[0], a(cv::Rect(0, 0, 150, 150))));
   EXPECT_TRUE(SamePixels(*(*t)[1], a(cv::Rect(150, 0, 150, 150))));
   EXPECT_TRUE(SamePixels(*(*t)[3], a(cv::Rect(150, 150, 150, 150))));
@@ -65,7 +67,7 @@ TEST(TexturesTest, APictureTooSmallToCutStaysWhole) {
   absl::StatusOr<std::vector<Texture>> t = LoadTextures(dir, 256, 8);
   ASSERT_TRUE(t.ok()) << t.status();
   ASSERT_EQ(t->size(), 5u);  // 4 tiles of a, b whole (its tiles would be 50 px)
-  EXPECT_TRUE(SamePixels(*(*t)[4], cv::imread(dir + "/b.png")));
+  EXPECT_TRUE(SamePixels(*(*t)[4], skimap::testing::ImRead(dir + "/b.png")));
 }
 
 // The default photographs are enough for a scene: they are never cut (the datasets made

@@ -1,7 +1,6 @@
 #include "server/core/objects/object_codec.h"
 
 #include <cmath>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/match.h"
@@ -10,6 +9,7 @@
 #include "absl/strings/strip.h"
 #include "base/echo.h"
 #include "base/encoding.h"
+#include "codec/image_files.h"
 #include "codec/image_header.h"
 #include "server/core/maps/frame_decode.h"
 #include "skimap/serialization.h"
@@ -147,12 +147,8 @@ absl::StatusOr<cv::Mat> DecodeMask(v1::MaskEncoding encoding, const std::string&
           absl::StrCat(field, ": PNG header claims ", h->width, "x", h->height, " at ",
                        h->bit_depth, " bits, expected an 8-bit ", width, "x", height, " mask"));
     }
-    const cv::Mat buf(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
-    try {
-      mask = cv::imdecode(buf, cv::IMREAD_GRAYSCALE);
-    } catch (const cv::Exception&) {
-      mask = cv::Mat();
-    }
+    absl::StatusOr<cv::Mat> decoded = perception::DecodeImage(bytes, perception::ImageMode::kGrey);
+    if (decoded.ok()) mask = *std::move(decoded);
     if (mask.empty()) return absl::InvalidArgumentError(absl::StrCat(field, ": not a PNG"));
     if (mask.cols != width || mask.rows != height) {
       return absl::InvalidArgumentError(absl::StrCat(

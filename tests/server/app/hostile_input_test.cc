@@ -7,11 +7,11 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <tuple>
 
 #include "client/map_client.h"
+#include "tests/common/images.h"
 #include "tests/common/skimapd_process.h"
 #include "tests/common/synthetic_scene.h"
 
@@ -36,7 +36,7 @@ void PutBe(std::string* s, size_t at, uint32_t v, int bytes) {
 
 std::string Encode(const char* ext, const cv::Mat& m) {
   std::vector<uint8_t> buf;
-  EXPECT_TRUE(cv::imencode(ext, m, buf));
+  EXPECT_TRUE(ImEncode(ext, m, &buf));
   return std::string(buf.begin(), buf.end());
 }
 

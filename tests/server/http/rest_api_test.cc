@@ -7,7 +7,6 @@
 #include <cmath>
 #include <map>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <string>
 #include <vector>
@@ -16,6 +15,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "client/cli/dataset_frames.h"
+#include "tests/common/images.h"
 #include "tests/server/http/rest_fixture.h"
 
 namespace skimap::testing {
@@ -166,8 +166,7 @@ TEST_F(RestApiTest, OccupancyGridAsJsonPgmAndPng) {
       ASSERT_EQ(r->body.substr(0, header.size()), header);
       EXPECT_EQ(r->body.size(), header.size() + size_t(w) * h);
     }
-    const cv::Mat image = cv::imdecode(cv::Mat(1, int(r->body.size()), CV_8UC1, r->body.data()),
-                                       cv::IMREAD_UNCHANGED);
+    const cv::Mat image = ImDecode(r->body, ImageMode::kUnchanged);
     ASSERT_EQ(image.type(), CV_8UC1);
     ASSERT_EQ(image.cols, w);
     ASSERT_EQ(image.rows, h);
@@ -196,8 +195,7 @@ TEST_F(RestApiTest, HeightMapAsJsonAndAsA16BitPng) {
   ASSERT_TRUE(absl::SimpleAtod(r->get_header_value("X-Skimap-Z-Offset"), &offset));
   ASSERT_TRUE(absl::SimpleAtod(r->get_header_value("X-Skimap-Z-Scale"), &scale));
   EXPECT_DOUBLE_EQ(scale, 0.001);
-  const cv::Mat image =
-      cv::imdecode(cv::Mat(1, int(r->body.size()), CV_8UC1, r->body.data()), cv::IMREAD_UNCHANGED);
+  const cv::Mat image = ImDecode(r->body, ImageMode::kUnchanged);
   ASSERT_EQ(image.type(), CV_16UC1);
   ASSERT_EQ(image.cols, int(map.width()));
   ASSERT_EQ(image.rows, int(map.height()));
