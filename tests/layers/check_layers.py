@@ -29,7 +29,7 @@ LAYERS = {
     'base':        (['base/'], ['skimap_base'], []),
     'codec':       (['codec/'], ['skimap_codec', 'skimap_image_codec'], []),
     'skimap':      (['skimap/'], ['skimap'], ['base']),
-    'dataset':     (['dataset/'], ['skimap_dataset'], []),
+    'dataset':     (['dataset/'], ['skimap_dataset'], ['codec']),
     'sim':         (['sim/'], ['skimap_sim', 'skimap-sim', 'skimap-model-views'], ['dataset']),
     'proto':       (['skimap/v1/'], ['skimap_proto'], []),
     'perception':  (['perception/'], ['skimap_perception'], ['skimap', 'codec', 'base']),
