@@ -4,7 +4,7 @@
 #   below) on the release build, which builds only what they run;
 # - everything else on one clang build under ASan+UBSan (compiling it with
 #   -Werror=thread-safety checks the lock annotations), then every fuzz target briefly
-#   (SKIMAP_FUZZ_SECONDS each, default 15);
+#   (SKIMAP_FUZZ_SECONDS each, default 10);
 # - the concurrency tests under ThreadSanitizer (clang), built beside the ASan suite at the
 #   lowest CPU priority, as the ASan build is beside the release pass.
 set -euo pipefail
