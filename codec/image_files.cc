@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
-#include <iterator>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/ascii.h"
@@ -240,9 +239,20 @@ absl::StatusOr<cv::Mat> ReadImageFile(const std::string& path, ImageMode mode) {
   if (Recognise(std::string_view(head, static_cast<size_t>(in.gcount()))) == Format::kTiff) {
     s = image_formats::ReadTiff(path, mode, &out);
   } else {
+    // One sized read: a per-character copy (istreambuf_iterator) took 12 % of a render's
+    // CPU under ASan reading the sim's textures.
     in.clear();
+    in.seekg(0, std::ios::end);
+    const std::streamoff size = in.tellg();
+    if (size < 0) return absl::InternalError(absl::StrCat(path, ": cannot be read"));
+    if (size > kMaxImageFileBytes) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          path, ": ", size, " bytes, more than an image file may hold (", kMaxImageFileBytes, ")"));
+    }
+    std::string bytes(static_cast<size_t>(size), '\0');
     in.seekg(0);
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.read(bytes.data(), size);
+    if (in.gcount() != size) return absl::InternalError(absl::StrCat(path, ": cannot be read"));
     s = DecodeImageInto(bytes, mode, &out);
   }
   if (!s.ok()) return absl::InvalidArgumentError(absl::StrCat(path, ": ", s.message()));

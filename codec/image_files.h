@@ -41,6 +41,8 @@ enum class ImageMode { kUnchanged, kColor, kRgb, kGrey, kAnyDepth };
 
 // 2^27 pixels (e.g. 16384 x 8192): larger images are refused from their header.
 inline constexpr int64_t kMaxImagePixels = int64_t{1} << 27;
+// 1 GiB: a raw 16-bit PPM of kMaxImagePixels is 768 MiB; a larger file is refused unread.
+inline constexpr int64_t kMaxImageFileBytes = int64_t{1} << 30;
 
 // Decodes PNG, JPEG, WebP or PGM/PPM bytes into *out. *out is reallocated only when its size
 // or type differs from the result, so a matrix over a caller's buffer of the right size and
@@ -50,7 +52,8 @@ absl::Status DecodeImageInto(std::string_view bytes, ImageMode mode, cv::Mat* ou
 absl::StatusOr<cv::Mat> DecodeImage(std::string_view bytes, ImageMode mode);
 
 // Reads the file at `path` (the formats of DecodeImage, and TIFF). NotFound if it cannot
-// be opened, InvalidArgument "<path>: ..." if it does not decode.
+// be opened, InvalidArgument "<path>: ..." if it does not decode or is larger than
+// kMaxImageFileBytes.
 absl::StatusOr<cv::Mat> ReadImageFile(const std::string& path, ImageMode mode);
 
 struct ImageEncoding {

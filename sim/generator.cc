@@ -176,8 +176,9 @@ absl::StatusOr<GeneratorStats> Generate(const GeneratorOptions& o) {
   }
   absl::StatusOr<std::vector<Texture>> textures = LoadTextures(o.texture_dir, 256, kSceneTextures);
   if (!textures.ok()) return textures.status();
-  const std::vector<ObjectModel> objects = MakeDatabaseObjects(*textures, preset->objects);
-  const std::vector<Mesh> distractors = MakeDistractors(*textures, 4);
+  const std::vector<size_t> rank = RankByDetail(*textures);
+  const std::vector<ObjectModel> objects = MakeDatabaseObjects(*textures, rank, preset->objects);
+  const std::vector<Mesh> distractors = MakeDistractors(*textures, rank, 4);
   dataset::CameraInfo cam{{525.0, 525.0, 319.5, 239.5, 640, 480}, 0.2};
   if (auto s = WriteRoot(o, cam, objects); !s.ok()) return s;
   if (o.models_only) return GeneratorStats{};

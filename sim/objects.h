@@ -47,15 +47,17 @@ inline constexpr int kSceneTextures = 2 * kNumObjectDesigns + 4 + 1;
 std::vector<size_t> RankByDetail(const std::vector<Texture>& textures);
 
 // Makes database objects 1..count (count <= kNumObjectDesigns). Like printed packaging,
-// they get the most detailed photographs (RankByDetail order, cycling if there are fewer
-// textures than objects): a logo on a plain ground gives a recogniser nothing to work
-// with, on any object. REQUIRES: textures non-empty.
-std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures, int count);
+// they get the most detailed photographs (`rank`: RankByDetail(textures), cycling if there
+// are fewer textures than objects): a logo on a plain ground gives a recogniser nothing to
+// work with, on any object. REQUIRES: textures non-empty.
+std::vector<ObjectModel> MakeDatabaseObjects(const std::vector<Texture>& textures,
+                                             const std::vector<size_t>& rank, int count);
 
-// Makes `count` distractor meshes (origin at bbox centre), textured from the end of the
-// RankByDetail order, so they look unlike the database objects (which take its start).
-// REQUIRES: textures non-empty.
-std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures, int count);
+// Makes `count` distractor meshes (origin at bbox centre), textured from the end of
+// `rank` (RankByDetail(textures)), so they look unlike the database objects (which take
+// its start). REQUIRES: textures non-empty.
+std::vector<Mesh> MakeDistractors(const std::vector<Texture>& textures,
+                                  const std::vector<size_t>& rank, int count);
 
 // Moves the mesh so the centre of its bounding box is at the origin.
 void CentreMesh(Mesh& mesh);

@@ -238,6 +238,22 @@ TEST(ImageFilesTest, DamagedAndOversizedImagesAreRefusedByFormat) {
   refused(std::string("P6\n-4 4\n255\n"), "PNM");
   EXPECT_EQ(ReadImageFile("/nonexistent/a.png", ImageMode::kColor).status().code(),
             absl::StatusCode::kNotFound);
+  // A file over kMaxImageFileBytes is refused unread (sparse: no disk space taken). One at
+  // the size of its contents reads as before.
+  const fs::path dir = fs::temp_directory_path() / "skimap_image_files_size_test";
+  fs::create_directories(dir);
+  const std::string huge = (dir / "huge.png").string();
+  std::ofstream(huge, std::ios::binary) << png;
+  fs::resize_file(huge, kMaxImageFileBytes + 1);
+  absl::StatusOr<cv::Mat> too_big = ReadImageFile(huge, ImageMode::kColor);
+  EXPECT_EQ(too_big.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(too_big.status().message().find("huge.png"), std::string::npos) << too_big.status();
+  EXPECT_NE(too_big.status().message().find("more than an image file may hold"), std::string::npos);
+  fs::resize_file(huge, png.size());
+  absl::StatusOr<cv::Mat> back = ReadImageFile(huge, ImageMode::kColor);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_TRUE(Same(*back, photo));
+  fs::remove_all(dir);
   EXPECT_FALSE(EncodeImage(".bmp", photo).ok());
   EXPECT_FALSE(EncodeImage(".jpg", cv::Mat(4, 4, CV_16UC1)).ok());
 }

@@ -132,7 +132,8 @@ TEST_F(GeneratorTest, ObjectPoseInWorldIsIdenticalAcrossFrames) {
 TEST_F(GeneratorTest, ProjectedModelPointsFallInsideVisibleMasks) {
   auto textures = LoadTextures(kDefaultTextureDir);
   ASSERT_TRUE(textures.ok()) << textures.status();
-  const std::vector<ObjectModel> models = MakeDatabaseObjects(*textures, 3);
+  const std::vector<ObjectModel> models =
+      MakeDatabaseObjects(*textures, RankByDetail(*textures), 3);
   int checked = 0;
   for (const char* scene : {"/test/000001", "/train/000001", "/train/000003"}) {
     auto seq = dataset::LoadBopScene(Dir() + scene);
