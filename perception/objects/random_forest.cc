@@ -36,6 +36,7 @@ class TreeBuilder {
     idx_.resize(draws);
     for (size_t& i : idx_) i = pick(rng_);
     values_.resize(draws);
+    labels_.resize(draws);
     Grow(0, draws, 0);
   }
 
@@ -49,6 +50,7 @@ class TreeBuilder {
     double sum_sq = 0;
     for (size_t i = begin; i < end; ++i) {
       const uint32_t c = set_.labels[idx_[i]];
+      labels_[i] = c;
       if (count_[c] == 0) touched_.push_back(c);
       sum_sq += 2.0 * count_[c] + 1;
       ++count_[c];
@@ -77,7 +79,8 @@ class TreeBuilder {
   }
 
   // Best (feature, threshold) by weighted Gini; best_f stays -1 if no split separates.
-  // REQUIRES: count_ holds this node's class counts, sum_sq = sum of count^2.
+  // REQUIRES: count_ holds this node's class counts, sum_sq = sum of count^2, touched_ its
+  // classes, labels_[begin, end) its samples' labels.
   void FindSplit(size_t begin, size_t end, double sum_sq, int* best_f, float* best_t) {
     const size_t n = end - begin;
     // Impurity * n = n - sum_sq / n; minimise the children's sum.
@@ -96,14 +99,14 @@ class TreeBuilder {
         double nl = 0, sl = 0, cross = 0;
         for (size_t i = begin; i < end; ++i) {
           if (values_[i] < t) {
-            const uint32_t c = set_.labels[idx_[i]];
+            const uint32_t c = labels_[i];
             sl += 2.0 * left_[c] + 1;
             cross += count_[c];
             ++left_[c];
             ++nl;
           }
         }
-        for (size_t i = begin; i < end; ++i) left_[set_.labels[idx_[i]]] = 0;
+        for (uint32_t c : touched_) left_[c] = 0;
         const double nr = n - nl;
         if (nl == 0 || nr == 0) continue;
         const double sr = sum_sq - 2 * cross + sl;
@@ -141,6 +144,7 @@ class TreeBuilder {
   std::vector<uint32_t> touched_;
   std::vector<size_t> idx_;
   std::vector<float> values_;
+  std::vector<uint32_t> labels_;  // labels_[i] = set_.labels[idx_[i]], set per node by Grow
   std::vector<Node>* nodes_ = nullptr;
   std::vector<LeafEntry>* leaves_ = nullptr;
 };
