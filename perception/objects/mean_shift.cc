@@ -1,6 +1,7 @@
 #include "perception/objects/mean_shift.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -52,9 +53,15 @@ bool ShiftBinary(const DescriptorMatrix& pts, const MeanShiftOptions& o, Mode* m
                  std::vector<double>* votes) {
   const DescriptorLayout& l = pts.layout();
   std::fill(votes->begin(), votes->end(), 0.0);
+  const int bytes = (l.dims + 7) / 8;
   const double total = WeighPoints(pts, o, m, [&](const DescriptorRef& p, double w) {
-    for (int b = 0; b < l.dims; ++b) {
-      if ((p.bits[b >> 3] >> (b & 7)) & 1) (*votes)[b] += w;
+    // The set bits only, in ascending order (each vote's sum in the same order as a loop
+    // over every bit).
+    for (int byte = 0; byte < bytes; ++byte) {
+      for (unsigned v = p.bits[byte]; v != 0; v &= v - 1) {
+        const int b = byte * 8 + std::countr_zero(v);
+        if (b < l.dims) (*votes)[b] += w;
+      }
     }
   });
   if (total == 0) return false;
