@@ -89,7 +89,13 @@ class TreeBuilder {
     std::uniform_int_distribution<size_t> pick_s(begin, end - 1);
     for (int fi = 0; fi < features_; ++fi) {
       const int f = pick_f(rng_);
-      for (size_t i = begin; i < end; ++i) values_[i] = X(idx_[i], f);
+      // The gather over raw pointers: under ASan an out-of-line X() per sample took a
+      // quarter of a forest's training.
+      const float* column = set_.features.data() + f;
+      const size_t dims = static_cast<size_t>(set_.dims);
+      const size_t* idx = idx_.data();
+      float* values = values_.data();
+      for (size_t i = begin; i < end; ++i) values[i] = column[idx[i] * dims];
       for (int ti = 0; ti < o_.thresholds_per_feature; ++ti) {
         float a = values_[pick_s(rng_)], b = values_[pick_s(rng_)];
         for (int retry = 0; retry < 4 && a == b; ++retry) b = values_[pick_s(rng_)];
