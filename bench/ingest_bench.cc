@@ -15,6 +15,8 @@
 // (--worker_threads, skimapd's default 2), timed from SubmitFrame to the ack callback.
 //
 //  1. Codec costs (bench/codec_costs.h).
+//  1b. PNG files as stored (--png_dirs; default the ycbv rgb/ and depth/ folders): our
+//     decoder against libpng alone, the same pixels checked (bench/codec_costs.h).
 //  2. Per frame, new space: every sample integrates one frame into a fresh map (every
 //     voxel is new); median and p90 over reps x 10 frames. "decode excluded" runs the same
 //     stages on the already decoded frame (the work Open3D is given), split into Stage
@@ -93,7 +95,9 @@ ABSL_FLAG(std::string, resolutions, "0.01,0.02,0.05", "voxel edges, metres");
 ABSL_FLAG(int, worker_threads, 2, "the server's integration threads (skimapd --worker_threads)");
 ABSL_FLAG(int, laps, 3, "throughput run: laps over the 10 frames");
 ABSL_FLAG(int, window, 8, "throughput run: frames in flight");
-ABSL_FLAG(std::string, sections, "codecs,fresh,reobserved,running,stream",
+ABSL_FLAG(std::string, png_dirs, "",
+          "section png: folders of PNG files (default: the ycbv scene's rgb/ and depth/)");
+ABSL_FLAG(std::string, sections, "codecs,png,fresh,reobserved,running,stream",
           "which parts to run (all by default)");
 
 namespace skimap::bench {
@@ -244,6 +248,15 @@ void Run() {
     return std::find(sections.begin(), sections.end(), name) != sections.end();
   };
   if (want("codecs")) PrintCodecCosts(frames, reps);
+  if (want("png")) {
+    std::vector<std::string> dirs =
+        absl::StrSplit(absl::GetFlag(FLAGS_png_dirs), ',', absl::SkipEmpty());
+    if (dirs.empty()) {
+      const std::string scene = absl::GetFlag(FLAGS_ycbv) + "/test/000000/";
+      dirs = {scene + "rgb", scene + "depth"};
+    }
+    PrintPngDecoders(dirs, reps);
+  }
 
   const std::vector<Codec> codecs = {
       {"raw + raw RGB", v1::DEPTH_ENCODING_RAW_U16, v1::COLOR_ENCODING_RAW_RGB8},

@@ -1,6 +1,6 @@
-// Image bytes and image files as OpenCV matrices: PNG (libpng), JPEG (libjpeg-turbo), WebP
-// (libwebp), TIFF (libtiff) and binary PGM / PPM, read and written without OpenCV's
-// imgcodecs module.
+// Image bytes and image files as OpenCV matrices: PNG (libpng; the common layouts inflated
+// with libdeflate, codec/png_fast_path.cc), JPEG (libjpeg-turbo), WebP (libwebp), TIFF
+// (libtiff) and binary PGM / PPM, read and written without OpenCV's imgcodecs module.
 //
 //   absl::StatusOr<cv::Mat> depth = ReadImageFile(path, ImageMode::kAnyDepth);  // CV_16UC1
 //   absl::StatusOr<std::string> png = EncodeImage(".png", bgr);

@@ -21,7 +21,14 @@
 
 namespace skimap::perception::image_formats {
 
+// PNG: DecodePngFast (png_fast_path.cc), or libpng when it declines.
 absl::Status DecodePng(std::string_view bytes, ImageMode mode, cv::Mat* out);
+// libpng alone (the reference the fast path is tested against).
+absl::Status DecodePngWithLibpng(std::string_view bytes, ImageMode mode, cv::Mat* out);
+// The common layouts (non-interlaced 8/16-bit grey, 8-bit RGB / RGBA; not every mode)
+// with libdeflate: true with exactly libpng's pixels in *out, or false (*out unspecified)
+// for any other layout or mode and for anything unusual or damaged, which libpng judges.
+bool DecodePngFast(std::string_view bytes, ImageMode mode, cv::Mat* out);
 absl::Status DecodeJpeg(std::string_view bytes, ImageMode mode, cv::Mat* out);
 absl::Status DecodeWebp(std::string_view bytes, ImageMode mode, cv::Mat* out);
 absl::Status DecodePnm(std::string_view bytes, ImageMode mode, cv::Mat* out);

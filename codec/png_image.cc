@@ -125,6 +125,11 @@ bool WriteAll(png_structp png, png_infop info, const cv::Mat& image, int compres
 }  // namespace
 
 absl::Status DecodePng(std::string_view bytes, ImageMode mode, cv::Mat* out) {
+  if (DecodePngFast(bytes, mode, out)) return absl::OkStatus();
+  return DecodePngWithLibpng(bytes, mode, out);
+}
+
+absl::Status DecodePngWithLibpng(std::string_view bytes, ImageMode mode, cv::Mat* out) {
   ErrorText error;
   png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &error, OnError, OnWarning);
   if (png == nullptr) return absl::InternalError("PNG: cannot create a decoder");

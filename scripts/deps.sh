@@ -6,7 +6,7 @@ set -euo pipefail
 pkgs=(build-essential cmake ninja-build ccache lld pkg-config clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libeigen3-dev libopencv-dev libsqlite3-dev libzstd-dev libassimp-dev nlohmann-json3-dev libcpp-httplib-dev
-  libturbojpeg0-dev libpng-dev libtiff-dev libwebp-dev zlib1g-dev libssl-dev openssl libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
+  libturbojpeg0-dev libpng-dev libtiff-dev libwebp-dev libdeflate-dev zlib1g-dev libssl-dev openssl libgtest-dev libgmock-dev libbenchmark-dev opencv-doc grpc-proto
   prometheus-cpp-dev
   clang-14 libclang-rt-14-dev python3-grpcio python3-protobuf libpq-dev postgresql
   postgresql-15-auto-failover pg-auto-failover-cli procps

@@ -9,12 +9,15 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "codec/image_formats.h"
 
 namespace skimap::perception {
 namespace {
@@ -256,6 +259,137 @@ TEST(ImageFilesTest, DamagedAndOversizedImagesAreRefusedByFormat) {
   fs::remove_all(dir);
   EXPECT_FALSE(EncodeImage(".bmp", photo).ok());
   EXPECT_FALSE(EncodeImage(".jpg", cv::Mat(4, 4, CV_16UC1)).ok());
+}
+
+// Filters `raw` scanlines (stride bytes each, bpp bytes per pixel) with PNG filter
+// `types[r % types.size()]` per row, each prefixed by its type byte (PNG specification 9).
+std::string FilterRows(const std::string& raw, size_t stride, size_t bpp,
+                       const std::vector<int>& types) {
+  std::string out;
+  const size_t rows = raw.size() / stride;
+  auto at = [&](size_t r, size_t i) -> int {  // 0 outside the image
+    return r < rows ? static_cast<uint8_t>(raw[r * stride + i]) : 0;
+  };
+  for (size_t r = 0; r < rows; ++r) {
+    const int type = types[r % types.size()];
+    out += char(type);
+    for (size_t i = 0; i < stride; ++i) {
+      const int x = at(r, i), a = i >= bpp ? at(r, i - bpp) : 0, b = r > 0 ? at(r - 1, i) : 0,
+                c = r > 0 && i >= bpp ? at(r - 1, i - bpp) : 0;
+      int predictor = 0;
+      if (type == 1) predictor = a;
+      if (type == 2) predictor = b;
+      if (type == 3) predictor = (a + b) / 2;
+      if (type == 4) {
+        const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
+        predictor = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+      }
+      out += char(static_cast<uint8_t>(x - predictor));
+    }
+  }
+  return out;
+}
+
+// A PNG of already filtered scanlines, its IDAT split into chunks of `idat_size` bytes,
+// with a tEXt chunk between IHDR and the first IDAT.
+std::string MakeFilteredPng(int width, int height, int bit_depth, int color_type,
+                            const std::string& filtered, size_t idat_size) {
+  uLongf size = compressBound(filtered.size());
+  std::string z(size, '\0');
+  compress(reinterpret_cast<Bytef*>(z.data()), &size,
+           reinterpret_cast<const Bytef*>(filtered.data()), filtered.size());
+  z.resize(size);
+  std::string ihdr = Be32(width) + Be32(height);
+  ihdr += {char(bit_depth), char(color_type), 0, 0, 0};
+  std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + Chunk("IHDR", ihdr) +
+                    Chunk("tEXt", std::string("Comment\0made by the test", 24));
+  for (size_t at = 0; at < z.size(); at += idat_size) png += Chunk("IDAT", z.substr(at, idat_size));
+  return png + Chunk("IEND", "");
+}
+
+TEST(ImageFilesTest, PngFastPathGivesLibpngsPixelsForEveryFilterLayoutAndMode) {
+  using image_formats::DecodePngFast;
+  using image_formats::DecodePngWithLibpng;
+  struct Layout {
+    int bit_depth, color_type, channels;
+    bool fast;  // the fast path takes it (in the modes it handles)
+  };
+  const Layout layouts[] = {{8, 0, 1, true}, {16, 0, 1, true}, {8, 2, 3, true},
+                            {8, 6, 4, true}, {8, 4, 2, false}, {16, 2, 3, false}};
+  const std::vector<std::vector<int>> filters = {{0}, {1}, {2}, {3}, {4}, {4, 1, 0, 3, 2}};
+  const ImageMode modes[] = {ImageMode::kUnchanged, ImageMode::kColor, ImageMode::kRgb,
+                             ImageMode::kGrey, ImageMode::kAnyDepth};
+  cv::RNG rng(11);
+  int fast_decodes = 0;
+  for (const Layout& l : layouts) {
+    const int width = 37, height = 6;
+    const size_t bpp = size_t(l.channels) * l.bit_depth / 8, stride = bpp * width;
+    std::string raw(stride * height, '\0');
+    for (char& ch : raw) ch = char(rng.uniform(0, 256));
+    for (const std::vector<int>& f : filters) {
+      for (size_t idat_size : {size_t{7}, size_t{1} << 20}) {
+        const std::string png = MakeFilteredPng(width, height, l.bit_depth, l.color_type,
+                                                FilterRows(raw, stride, bpp, f), idat_size);
+        for (ImageMode mode : modes) {
+          const std::string what = "depth " + std::to_string(l.bit_depth) + " colour type " +
+                                   std::to_string(l.color_type) + " filter " +
+                                   std::to_string(f[0]) + " mode " + std::to_string(int(mode));
+          cv::Mat reference, fast;
+          ASSERT_TRUE(DecodePngWithLibpng(png, mode, &reference).ok()) << what;
+          const bool handled = DecodePngFast(png, mode, &fast);
+          const bool colour = l.color_type != 0;
+          EXPECT_EQ(handled, l.fast && !(colour && (mode == ImageMode::kGrey ||
+                                                    mode == ImageMode::kAnyDepth)))
+              << what;
+          if (!handled) continue;
+          ++fast_decodes;
+          EXPECT_TRUE(Same(fast, reference))
+              << what << "\nfast " << fast << "\nlibpng " << reference;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(fast_decodes, 2 * 6 * (5 + 5 + 3 + 3));
+  // The real ycbv PNGs (8-bit RGB, 16-bit depth) take the fast path.
+  const fs::path dir = fs::path(SKIMAP_YCBV_DIR) / "test" / "000000";
+  for (const char* file : {"rgb/000001.png", "depth/000001.png"}) {
+    const std::string bytes = ReadFile((dir / file).string());
+    cv::Mat fast, reference;
+    const ImageMode mode = file[0] == 'r' ? ImageMode::kRgb : ImageMode::kAnyDepth;
+    ASSERT_TRUE(DecodePngFast(bytes, mode, &fast)) << file;
+    ASSERT_TRUE(DecodePngWithLibpng(bytes, mode, &reference).ok()) << file;
+    EXPECT_TRUE(Same(fast, reference)) << file;
+  }
+}
+
+TEST(ImageFilesTest, PngFastPathLeavesDamagedFilesToLibpng) {
+  using image_formats::DecodePngFast;
+  cv::Mat image(9, 13, CV_8UC3);
+  cv::randu(image, 0, 256);
+  const std::string png = EncodeImage(".png", image).value();
+  const size_t idat = png.find("IDAT");
+  ASSERT_NE(idat, std::string::npos);
+  cv::Mat out;
+  ASSERT_TRUE(DecodePngFast(png, ImageMode::kColor, &out));
+  // A flipped bit in the IDAT data: its CRC no longer matches.
+  std::string bad_crc = png;
+  bad_crc[idat + 10] ^= 0x01;
+  EXPECT_FALSE(DecodePngFast(bad_crc, ImageMode::kColor, &out));
+  // Cut inside the IDAT; a filter type PNG does not define (5; its chunk's CRC matches).
+  EXPECT_FALSE(DecodePngFast(png.substr(0, idat + 20), ImageMode::kColor, &out));
+  std::string raw(13 * 3, '\x40');
+  const std::string defined =
+      MakeFilteredPng(13, 2, 8, 2, FilterRows(raw + raw, 39, 3, {4}), 1 << 20);
+  EXPECT_TRUE(DecodePngFast(defined, ImageMode::kColor, &out));
+  std::string undefined = MakeFilteredPng(
+      13, 2, 8, 2, std::string(1, '\x05') + raw + std::string(1, '\0') + raw, 1 << 20);
+  EXPECT_FALSE(DecodePngFast(undefined, ImageMode::kColor, &out));
+  // Each refused by DecodeImage with libpng's own error, as before the fast path.
+  for (const std::string& bytes : {bad_crc, undefined}) {
+    absl::StatusOr<cv::Mat> m = DecodeImage(bytes, ImageMode::kColor);
+    EXPECT_EQ(m.status().code(), absl::StatusCode::kInvalidArgument) << m.status();
+    EXPECT_NE(m.status().message().find("PNG"), std::string::npos) << m.status();
+  }
 }
 
 }  // namespace

@@ -5,12 +5,14 @@
 // JPEG header alone, 8 depth RVL, 9-13 image_files.h's DecodeImage in each ImageMode), u16 width,
 // u16 height (each taken modulo 512, plus 1), then the image bytes. A decoded image must have the
 // asked size; a lossless codec must give the same image back after encoding it again; an image file
-// that decodes must have the mode's pixel type and encode as PNG.
+// that decodes must have the mode's pixel type and encode as PNG; a PNG the libdeflate fast
+// path decodes must decode to the same pixels with libpng alone.
 #include <cstdint>
 #include <string>
 
 #include "codec/image_codec.h"
 #include "codec/image_files.h"
+#include "codec/image_formats.h"
 #include "codec/image_header.h"
 #include "tests/fuzz/fuzz_input.h"
 
@@ -48,6 +50,19 @@ void Color(ColorCodec codec, std::string_view bytes, int width, int height) {
 }
 
 void File(perception::ImageMode mode, std::string_view bytes) {
+  // The PNG fast path against libpng: whatever it decodes, libpng decodes to the same
+  // pixels (it declines everything else).
+  cv::Mat fast;
+  if (perception::image_formats::DecodePngFast(bytes, mode, &fast)) {
+    cv::Mat reference;
+    if (!perception::image_formats::DecodePngWithLibpng(bytes, mode, &reference).ok()) {
+      Fail("the PNG fast path decoded bytes libpng refuses");
+    }
+    if (fast.size() != reference.size() || fast.type() != reference.type() ||
+        cv::norm(fast, reference, cv::NORM_INF) != 0) {
+      Fail("the PNG fast path and libpng decode different pixels");
+    }
+  }
   absl::StatusOr<cv::Mat> m = perception::DecodeImage(bytes, mode);
   if (!m.ok()) return;
   if (m->empty()) Fail("an image file decoded to an empty matrix");

@@ -84,6 +84,16 @@ void ImageSeeds() {
         Byte(9 + 4) + size + *perception::EncodeDepth(perception::DepthCodec::kPng16, Depth()));
   Write("image_codec", "file_jpeg",
         Byte(9 + 1) + size + *perception::EncodeColor(perception::ColorCodec::kJpeg, Color()));
+  // PNGs the libdeflate fast path decodes (codec/png_fast_path.cc): 8-bit RGB as RGB,
+  // BGRA unchanged, grey as grey.
+  cv::Mat bgra(kH, kW, CV_8UC4), grey(kH, kW, CV_8UC1);
+  cv::randu(bgra, 0, 256);
+  cv::randu(grey, 0, 256);
+  Write("image_codec", "file_png_rgb",
+        Byte(9 + 2) + size + *perception::EncodeColor(perception::ColorCodec::kPng, Color()));
+  Write("image_codec", "file_png_bgra", Byte(9) + size + *perception::EncodeImage(".png", bgra));
+  Write("image_codec", "file_png_grey",
+        Byte(9 + 3) + size + *perception::EncodeImage(".png", grey));
   Write("image_codec", "file_pgm",
         Byte(9) + size + *perception::EncodeImage(".pgm", cv::Mat(kH, kW, CV_8UC1, cv::Scalar(9))));
 }

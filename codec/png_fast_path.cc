@@ -1,0 +1,272 @@
+// The PNG layouts datasets and cameras write (non-interlaced 8- or 16-bit grey, 8-bit RGB
+// or RGBA), decoded with libdeflate instead of zlib: whole-buffer inflation, 2-4 times
+// zlib's speed on our images (docs/measurements/2026-12-03-png-fast-path.md), then the
+// rows unfiltered and converted here.
+//
+// The contract that keeps this small and safe: the fast path gives exactly libpng's
+// pixels or declines. It declines (returns false) for every layout or mode it does not
+// handle and for anything unusual or damaged — a chunk type that is not four letters, a
+// chunk CRC that does not match, a critical chunk it does not know, a PLTE, data that does
+// not inflate to exactly the rows, an undefined filter type — and then libpng decodes the bytes as
+// before, with its own checks and its own error text. tests/codec/image_files_test.cc compares both
+// decoders over every filter type, layout and mode; the image fuzz target compares them on
+// arbitrary bytes.
+#include <libdeflate.h>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "codec/image_formats.h"
+
+namespace skimap::perception::image_formats {
+namespace {
+
+uint32_t BigEndian32(const unsigned char* p) {
+  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3];
+}
+
+struct Header {
+  uint32_t width = 0, height = 0;
+  int bit_depth = 0, color_type = 0;
+  int channels = 0;  // stored samples per pixel
+};
+
+// Paeth's predictor (PNG specification, 9.4).
+inline uint8_t Paeth(int a, int b, int c) {
+  const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
+  if (pa <= pb && pa <= pc) return static_cast<uint8_t>(a);
+  return static_cast<uint8_t>(pb <= pc ? b : c);
+}
+
+#if defined(__SSE2__)
+// Paeth for 3- or 4-byte pixels, a pixel at a time in 16-bit lanes (the bytes of a pixel
+// are independent; each pixel depends on the one before it): the same choice as Paeth()
+// for every byte. About twice the scalar loop's speed on an RGB photograph.
+void UnfilterPaethSse2(uint8_t* row, const uint8_t* prev, size_t n, size_t bpp) {
+  const __m128i zero = _mm_setzero_si128();
+  auto load = [&](const uint8_t* p) {
+    uint32_t v = 0;
+    std::memcpy(&v, p, bpp);
+    return _mm_unpacklo_epi8(_mm_cvtsi32_si128(static_cast<int>(v)), zero);
+  };
+  auto abs16 = [&](__m128i x) { return _mm_max_epi16(x, _mm_sub_epi16(zero, x)); };
+  __m128i a = zero, c = zero;  // left and upper left, unfiltered
+  for (size_t i = 0; i + bpp <= n; i += bpp) {
+    const __m128i b = load(prev + i);
+    const __m128i x = load(row + i);
+    const __m128i pa_signed = _mm_sub_epi16(b, c), pb_signed = _mm_sub_epi16(a, c);
+    const __m128i pa = abs16(pa_signed), pb = abs16(pb_signed);
+    const __m128i pc = abs16(_mm_add_epi16(pa_signed, pb_signed));
+    const __m128i smallest = _mm_min_epi16(_mm_min_epi16(pa, pb), pc);
+    const __m128i use_a = _mm_cmpeq_epi16(pa, smallest);
+    const __m128i use_b = _mm_andnot_si128(use_a, _mm_cmpeq_epi16(pb, smallest));
+    const __m128i use_c = _mm_andnot_si128(_mm_or_si128(use_a, use_b), _mm_set1_epi16(-1));
+    const __m128i predictor = _mm_or_si128(
+        _mm_or_si128(_mm_and_si128(use_a, a), _mm_and_si128(use_b, b)), _mm_and_si128(use_c, c));
+    const __m128i value = _mm_and_si128(_mm_add_epi16(x, predictor), _mm_set1_epi16(0xff));
+    const uint32_t bytes = static_cast<uint32_t>(_mm_cvtsi128_si32(_mm_packus_epi16(value, zero)));
+    std::memcpy(row + i, &bytes, bpp);
+    a = value;
+    c = b;
+  }
+}
+#endif
+
+// Undoes row filter `type` on `row` (n bytes, bpp bytes per pixel) against `prev` (the
+// previous row unfiltered, all zero above the first). False for a filter type PNG does not
+// define.
+bool Unfilter(int type, uint8_t* row, const uint8_t* prev, size_t n, size_t bpp) {
+  switch (type) {
+    case 0:
+      return true;
+    case 1:
+      for (size_t i = bpp; i < n; ++i) row[i] = static_cast<uint8_t>(row[i] + row[i - bpp]);
+      return true;
+    case 2:
+      for (size_t i = 0; i < n; ++i) row[i] = static_cast<uint8_t>(row[i] + prev[i]);
+      return true;
+    case 3:
+      for (size_t i = 0; i < bpp && i < n; ++i)
+        row[i] = static_cast<uint8_t>(row[i] + (prev[i] >> 1));
+      for (size_t i = bpp; i < n; ++i) {
+        row[i] = static_cast<uint8_t>(row[i] + ((row[i - bpp] + prev[i]) >> 1));
+      }
+      return true;
+    case 4:
+#if defined(__SSE2__)
+      if (bpp == 3 || bpp == 4) {
+        UnfilterPaethSse2(row, prev, n, bpp);
+        return true;
+      }
+#endif
+      for (size_t i = 0; i < bpp && i < n; ++i) row[i] = static_cast<uint8_t>(row[i] + prev[i]);
+      for (size_t i = bpp; i < n; ++i) {
+        row[i] = static_cast<uint8_t>(row[i] + Paeth(row[i - bpp], prev[i], prev[i - bpp]));
+      }
+      return true;
+    default:
+      return false;
+  }
+}
+
+// The pixel type the fast path gives for `h` in `mode`, as libpng's transforms in
+// png_image.cc would: -1 when it declines (CV_8UC1 is 0).
+int OutputType(const Header& h, ImageMode mode) {
+  if (h.color_type == 0) {  // grey, 8 or 16 bit
+    const bool keep_depth = mode == ImageMode::kUnchanged || mode == ImageMode::kAnyDepth;
+    const int depth = h.bit_depth == 16 && keep_depth ? CV_16U : CV_8U;
+    const bool colour_out = mode == ImageMode::kColor || mode == ImageMode::kRgb;
+    return CV_MAKETYPE(depth, colour_out ? 3 : 1);
+  }
+  if (h.bit_depth != 8) return -1;
+  // RGB / RGBA, 8 bit: grey conversion (libpng's own weights and rounding) is libpng's.
+  if (mode == ImageMode::kColor || mode == ImageMode::kRgb) return CV_8UC3;
+  if (mode == ImageMode::kUnchanged) return CV_8UC(h.channels);
+  return -1;
+}
+
+// Writes one unfiltered row (stored layout) to `out` in the output layout.
+void ConvertRow(const uint8_t* in, const Header& h, ImageMode mode, int out_type, uint8_t* out) {
+  const size_t w = h.width;
+  if (h.color_type == 0) {
+    const int out_channels = CV_MAT_CN(out_type);
+    if (CV_MAT_DEPTH(out_type) == CV_16U) {  // as stored, in host (little-endian) order
+      for (size_t i = 0; i < w; ++i) {
+        const uint16_t v = static_cast<uint16_t>((in[2 * i] << 8) | in[2 * i + 1]);
+        std::memcpy(out + 2 * i, &v, 2);
+      }
+      return;
+    }
+    const size_t step = h.bit_depth == 16 ? 2 : 1;  // 16 -> 8 bit: the high byte
+    if (out_channels == 1) {
+      if (step == 1) {
+        std::memcpy(out, in, w);
+      } else {
+        for (size_t i = 0; i < w; ++i) out[i] = in[2 * i];
+      }
+    } else {
+      for (size_t i = 0; i < w; ++i) out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = in[step * i];
+    }
+    return;
+  }
+  const size_t c = static_cast<size_t>(h.channels);
+  const bool bgr = mode != ImageMode::kRgb;
+  const int out_channels = CV_MAT_CN(out_type);
+  if (!bgr && out_channels == 3 && c == 3) {
+    std::memcpy(out, in, 3 * w);
+    return;
+  }
+  for (size_t i = 0; i < w; ++i) {
+    const uint8_t* p = in + c * i;
+    uint8_t* o = out + out_channels * i;
+    o[0] = bgr ? p[2] : p[0];
+    o[1] = p[1];
+    o[2] = bgr ? p[0] : p[2];
+    if (out_channels == 4) o[3] = p[3];
+  }
+}
+
+struct DecompressorDeleter {
+  void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
+};
+
+}  // namespace
+
+bool DecodePngFast(std::string_view bytes, ImageMode mode, cv::Mat* out) {
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  const size_t size = bytes.size();
+  if (size < 8 || std::memcmp(data, kSignature, 8) != 0) return false;
+  // The chunks: IHDR first, then the consecutive IDATs; ancillary chunks skipped (libpng
+  // applies none of them in png_image.cc's transforms).
+  Header h;
+  thread_local std::vector<unsigned char> idat;
+  idat.clear();
+  bool have_header = false, in_idat = false, idat_done = false;
+  for (size_t at = 8;;) {
+    if (size - at < 12) break;  // the end (with or without IEND)
+    const uint32_t length = BigEndian32(data + at);
+    if (length > 0x7fffffffu || length > size - at - 12) return false;
+    const unsigned char* type = data + at + 4;
+    const unsigned char* body = type + 4;
+    for (int k = 0; k < 4; ++k) {  // a chunk type is four ASCII letters
+      if (!((type[k] >= 'A' && type[k] <= 'Z') || (type[k] >= 'a' && type[k] <= 'z'))) {
+        return false;
+      }
+    }
+    const bool critical = (type[0] & 0x20) == 0;
+    const bool is_ihdr = std::memcmp(type, "IHDR", 4) == 0;
+    const bool is_idat = std::memcmp(type, "IDAT", 4) == 0;
+    const bool is_iend = std::memcmp(type, "IEND", 4) == 0;
+    if (critical && !is_ihdr && !is_idat && !is_iend) return false;  // PLTE or unknown
+    // Every chunk's CRC, ancillary ones too (libpng may warn or refuse: not ours to judge).
+    if (libdeflate_crc32(0, type, length + 4) != BigEndian32(body + length)) {
+      return false;
+    }
+    if (is_ihdr != !have_header) return false;  // IHDR first, once
+    if (is_ihdr) {
+      if (length != 13) return false;
+      h.width = BigEndian32(body);
+      h.height = BigEndian32(body + 4);
+      h.bit_depth = body[8];
+      h.color_type = body[9];
+      // compression 0, filter method 0, no interlace; libpng's user limits (2^20).
+      if (body[10] != 0 || body[11] != 0 || body[12] != 0) return false;
+      if (h.width == 0 || h.height == 0 || h.width > (1u << 20) || h.height > (1u << 20)) {
+        return false;
+      }
+      if (h.color_type == 0 && (h.bit_depth == 8 || h.bit_depth == 16)) {
+        h.channels = 1;
+      } else if ((h.color_type == 2 || h.color_type == 6) && h.bit_depth == 8) {
+        h.channels = h.color_type == 2 ? 3 : 4;
+      } else {
+        return false;
+      }
+      have_header = true;
+    } else if (is_idat) {
+      if (idat_done) return false;  // IDATs not consecutive: libpng's to judge
+      in_idat = true;
+      idat.insert(idat.end(), body, body + length);
+    } else {
+      if (in_idat) idat_done = true;
+      if (is_iend) break;
+    }
+    at += 12 + size_t{length};
+  }
+  if (!have_header || idat.empty()) return false;
+  const int out_type = OutputType(h, mode);
+  if (out_type < 0 || !CheckPixels("PNG", h.width, h.height).ok()) return false;
+  const size_t bpp = static_cast<size_t>(h.channels) * (h.bit_depth / 8);
+  const size_t row_bytes = bpp * h.width;
+  const size_t stride = row_bytes + 1;  // the filter type byte first
+  thread_local std::vector<unsigned char> rows;
+  rows.resize(stride * h.height);
+  thread_local std::unique_ptr<libdeflate_decompressor, DecompressorDeleter> decompressor(
+      libdeflate_alloc_decompressor());
+  if (decompressor == nullptr) return false;
+  // Exactly the rows, or decline (libpng reports what is wrong).
+  if (libdeflate_zlib_decompress(decompressor.get(), idat.data(), idat.size(), rows.data(),
+                                 rows.size(), nullptr) != LIBDEFLATE_SUCCESS) {
+    return false;
+  }
+  out->create(static_cast<int>(h.height), static_cast<int>(h.width), out_type);
+  thread_local std::vector<unsigned char> zeros;
+  zeros.assign(row_bytes, 0);
+  const unsigned char* prev = zeros.data();
+  for (uint32_t r = 0; r < h.height; ++r) {
+    unsigned char* row = rows.data() + stride * r;
+    if (!Unfilter(row[0], row + 1, prev, row_bytes, bpp)) return false;
+    ConvertRow(row + 1, h, mode, out_type, out->ptr(static_cast<int>(r)));
+    prev = row + 1;
+  }
+  return true;
+}
+
+}  // namespace skimap::perception::image_formats
