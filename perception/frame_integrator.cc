@@ -86,16 +86,41 @@ IntegrationStats BuildFrameBatch(const RgbdFrame& frame, const Grid& grid,
       const uint16_t* up = v > 0 ? row - cam.width : nullptr;
       const uint16_t* down = v + 1 < cam.height ? row + cam.width : nullptr;
       uint32_t edges = 0;
-      for (int c = 0; c < cols; ++c) {
-        const int u = c * stride;
-        const int d = row[u];
-        const double limit = jump * d;
-        auto far = [&](int n) { return n != 0 && std::abs(d - n) > limit; };
-        const bool edge =
-            d != 0 && ((u > 0 && far(row[u - 1])) || (u + 1 < cam.width && far(row[u + 1])) ||
-                       (up != nullptr && far(up[u])) || (down != nullptr && far(down[u])));
-        kept[c] = edge ? 0 : uint16_t(d);
-        edges += edge;
+      if (stride == 1) {
+        // The same test without branches, so that it runs on vector lanes: |d - d'| is an
+        // integer, so |d - d'| > jump * d exactly when |d - d'| > floor(jump * d); a missing
+        // neighbour (the image border) is the pixel itself, which is never far.
+        thread_local std::vector<int32_t> limit;
+        limit.resize(cols);
+        for (int c = 0; c < cols; ++c) limit[c] = static_cast<int32_t>(jump * row[c]);
+        const uint16_t* above = up != nullptr ? up : row;
+        const uint16_t* below = down != nullptr ? down : row;
+        auto far = [](int32_t d, int32_t n, int32_t t) {
+          return static_cast<uint32_t>(n != 0) & static_cast<uint32_t>(std::abs(d - n) > t);
+        };
+        auto keep = [&](int c, int32_t left, int32_t right) {
+          const int32_t d = row[c], t = limit[c];
+          const uint32_t edge =
+              static_cast<uint32_t>(d != 0) &
+              (far(d, left, t) | far(d, right, t) | far(d, above[c], t) | far(d, below[c], t));
+          kept[c] = static_cast<uint16_t>(d * static_cast<int32_t>(1 - edge));
+          return edge;
+        };
+        edges += keep(0, row[0], cols > 1 ? row[1] : row[0]);
+        for (int c = 1; c + 1 < cols; ++c) edges += keep(c, row[c - 1], row[c + 1]);
+        if (cols > 1) edges += keep(cols - 1, row[cols - 2], row[cols - 1]);
+      } else {
+        for (int c = 0; c < cols; ++c) {
+          const int u = c * stride;
+          const int d = row[u];
+          const double limit = jump * d;
+          auto far = [&](int n) { return n != 0 && std::abs(d - n) > limit; };
+          const bool edge =
+              d != 0 && ((u > 0 && far(row[u - 1])) || (u + 1 < cam.width && far(row[u + 1])) ||
+                         (up != nullptr && far(up[u])) || (down != nullptr && far(down[u])));
+          kept[c] = edge ? 0 : uint16_t(d);
+          edges += edge;
+        }
       }
       edge_rows[r] = edges;
       row = kept.data();

@@ -147,7 +147,7 @@ TEST(FrameIntegratorTest, RowWiseBatchEqualsThePerPixelFormulation) {
   }
   ThreadPool pool(2);
   for (const auto& variant :
-       {std::pair(&f, 0.0), std::pair(&smooth, 0.0), std::pair(&smooth, 0.05)})
+       {std::pair(&f, 0.0), std::pair(&f, 0.05), std::pair(&smooth, 0.0), std::pair(&smooth, 0.05)})
     for (const double resolution : {0.01, 0.05}) {
       // (Plain variables: clang 14 lambdas cannot capture structured bindings.)
       const RgbdFrame* const frame = variant.first;
