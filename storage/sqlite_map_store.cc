@@ -72,8 +72,12 @@ int64_t NowUnixMs() {
 
 absl::StatusOr<std::unique_ptr<SqliteMapStore>> SqliteMapStore::Open(const std::string& path) {
   SK_ASSIGN_OR_RETURN(db, Database::Open(path));
+  // A new file gets 64 KiB pages (an existing one keeps its own: SQLite sets the page size
+  // only before the first table): journal payloads are ~1 MB blobs, and the WAL writes each
+  // page as its own frame, two system calls per page; 16 times fewer pages per frame.
   // WAL: readers never block the writer; FULL: every commit is fsynced before it returns.
-  SK_RETURN_IF_ERROR(db->Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=FULL;"));
+  SK_RETURN_IF_ERROR(
+      db->Exec("PRAGMA page_size=65536; PRAGMA journal_mode=WAL; PRAGMA synchronous=FULL;"));
   SK_RETURN_IF_ERROR(Migrate(*db, kMapStoreMigrations));
   return std::unique_ptr<SqliteMapStore>(new SqliteMapStore(std::move(db)));
 }

@@ -10,6 +10,7 @@
 #include "storage/object_store.h"
 #include "storage/schema.h"
 #include "storage/sqlite.h"
+#include "storage/sqlite_map_store.h"
 #include "tests/common/test_temp_dir.h"
 
 namespace skimap::storage {
@@ -17,6 +18,16 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string TempDir() { return skimap::testing::TestTempDir("skimap_storage"); }
+
+int64_t PageSize(const std::string& path) {
+  auto db = Database::Open(path);
+  EXPECT_TRUE(db.ok()) << db.status();
+  auto st = (*db)->Prepare("PRAGMA page_size");
+  EXPECT_TRUE(st.ok()) << st.status();
+  auto row = st->Step();
+  EXPECT_TRUE(row.ok() && *row);
+  return st->ColumnInt(0);
+}
 
 StoredObjectDatabase SampleRecords() {
   StoredObjectDatabase db;
@@ -157,6 +168,34 @@ TEST(ObjectStoreTest, NotADatabaseIsAnError) {
   auto store = ObjectStore::Open(path);
   EXPECT_FALSE(store.ok());
   EXPECT_EQ(store.status().code(), absl::StatusCode::kDataLoss) << store.status();
+}
+
+// storage/sqlite_map_store.cc: journal payloads are ~1 MB blobs, so a new maps file gets
+// 64 KiB pages; a file made with another page size keeps it and works as before.
+TEST(SqliteMapStoreTest, ANewFileHas64KiBPagesAndAnOldFileKeepsItsOwn) {
+  const std::string fresh = TempDir() + "/fresh_maps.sqlite";
+  {
+    auto store = SqliteMapStore::Open(fresh);
+    ASSERT_TRUE(store.ok()) << store.status();
+    ASSERT_TRUE((*store)->CreateMap("m", "options").ok());
+  }
+  EXPECT_EQ(PageSize(fresh), 65536);
+
+  const std::string old = TempDir() + "/old_maps.sqlite";
+  {
+    auto db = Database::Open(old);
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_TRUE((*db)->Exec("PRAGMA page_size=4096; CREATE TABLE earlier (a INTEGER);").ok());
+  }
+  {
+    auto store = SqliteMapStore::Open(old);
+    ASSERT_TRUE(store.ok()) << store.status();
+    ASSERT_TRUE((*store)->CreateMap("m", "options").ok());
+    auto maps = (*store)->ListMaps();
+    ASSERT_TRUE(maps.ok()) << maps.status();
+    EXPECT_EQ(maps->size(), 1u);
+  }
+  EXPECT_EQ(PageSize(old), 4096);
 }
 
 }  // namespace
