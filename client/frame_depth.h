@@ -19,6 +19,12 @@ namespace skimap::client {
 
 // The depth encoding clients send unless told otherwise.
 inline constexpr v1::DepthEncoding kDefaultDepthEncoding = v1::DEPTH_ENCODING_ZSTD;
+// For a client that holds depth as an encoded file (the CLI's dataset folders): a 16-bit
+// greyscale PNG goes as stored (PNG16), anything else decoded and re-encoded with
+// kDefaultDepthEncoding. The server inflates a PNG with libdeflate about as fast as it
+// unpacks zstd, and the client then neither decodes nor encodes (docs/api.md, "Depth and
+// colour encodings"). Not a wire value: SetFrameDepth refuses it.
+inline constexpr v1::DepthEncoding kDepthAsStored = v1::DEPTH_ENCODING_UNSPECIFIED;
 
 // Encodes width x height depth pixels (row-major, sensor units, 0 = no measurement) with
 // `encoding` into frame->depth and sets frame->depth_encoding. InvalidArgument for a size

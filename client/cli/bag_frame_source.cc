@@ -197,6 +197,8 @@ absl::StatusOr<std::unique_ptr<FrameSource>> OpenBagFrameSource(const std::strin
   }
   absl::StatusOr<std::unique_ptr<bag::BagFrames>> bag = bag::BagFrames::Open(path, options);
   if (!bag.ok()) return bag.status();
+  // A bag's depth arrives decoded: there is no file to send as stored.
+  if (depth_encoding == kDepthAsStored) depth_encoding = kDefaultDepthEncoding;
   return std::make_unique<BagFrameSource>(*std::move(bag), options, depth_encoding);
 }
 

@@ -26,7 +26,8 @@ namespace skimap::client {
 // Opens the bag at `path` (ros/bag/bag_reader.h) and chooses its topics: NotFound,
 // InvalidArgument (not a bag, ambiguous or missing topics, naming the flag to choose
 // with; a ROS 1 bag whose check crashed or outlasted `check_seconds`, 0 = 60 s plus 1 s
-// per 20 MB), DataLoss (a corrupt index). Frames carry depth as `depth_encoding`.
+// per 20 MB), DataLoss (a corrupt index). Frames carry depth as `depth_encoding`
+// (kDepthAsStored: kDefaultDepthEncoding).
 absl::StatusOr<std::unique_ptr<FrameSource>> OpenBagFrameSource(const std::string& path,
                                                                 const bag::BagFrameOptions& options,
                                                                 v1::DepthEncoding depth_encoding,

@@ -38,8 +38,8 @@ namespace skimap::client {
 class DatasetFrameSource final : public FrameSource {
  public:
   struct Options {
-    v1::DepthEncoding depth_encoding = kDefaultDepthEncoding;
-    int threads = 2;     // workers preparing frames, >= 1
+    v1::DepthEncoding depth_encoding = kDepthAsStored;  // ToApiFrame's
+    int threads = 2;                                    // workers preparing frames, >= 1
     int read_ahead = 8;  // frames prepared or in preparation at most, >= threads
   };
 

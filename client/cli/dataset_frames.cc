@@ -8,10 +8,19 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "codec/image_files.h"
+#include "codec/image_header.h"
 #include "dataset/reader.h"
 
 namespace skimap::client {
 namespace {
+
+// True if `bytes` claim to be a 16-bit greyscale PNG (its header only: a damaged file is
+// refused by the server, naming the frame's depth).
+bool IsPng16Grey(const std::string& bytes) {
+  absl::StatusOr<perception::ImageHeader> h =
+      perception::ReadImageHeader(perception::ImageFormat::kPng, bytes, "depth");
+  return h.ok() && h->bit_depth == 16 && h->channels == 1;
+}
 
 absl::StatusOr<std::string> ReadBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
@@ -86,10 +95,12 @@ absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& f, const std::string&
   k->set_height(f.K.height);
   absl::StatusOr<std::string> depth = ReadBytes(f.depth_path);
   if (!depth.ok()) return depth.status();
-  if (depth_encoding == v1::DEPTH_ENCODING_PNG16) {
+  if (depth_encoding == v1::DEPTH_ENCODING_PNG16 ||
+      (depth_encoding == kDepthAsStored && IsPng16Grey(*depth))) {
     out.set_depth_encoding(v1::DEPTH_ENCODING_PNG16);
     out.set_depth(*std::move(depth));
   } else {
+    if (depth_encoding == kDepthAsStored) depth_encoding = kDefaultDepthEncoding;
     const cv::Mat pixels =
         perception::DecodeImage(*depth, perception::ImageMode::kAnyDepth).value_or(cv::Mat());
     if (pixels.type() != CV_16UC1 || !pixels.isContinuous()) {

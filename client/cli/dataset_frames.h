@@ -28,13 +28,14 @@ std::vector<dataset::Frame> KeepEvery(std::vector<dataset::Frame> frames, int ev
                                       int max_frames);
 
 // Reads the frame's files into a Frame for `map_name` with `sequence`, depth with
-// `depth_encoding` (PNG16: the file's bytes as stored; ZSTD / RVL / RAW_U16: decoded and
-// re-encoded). FailedPrecondition if the frame has no pose or no depth image; NotFound for
-// a missing file; InvalidArgument if the depth file is not a 16-bit PNG or the encoding is not one
-// of those four.
+// `depth_encoding` (kDepthAsStored: a 16-bit greyscale PNG as stored, any other file
+// re-encoded with zstd; PNG16: the file's bytes as stored, unchecked; ZSTD / RVL / RAW_U16:
+// decoded and re-encoded). FailedPrecondition if the frame has no pose or no depth image;
+// NotFound for a missing file; InvalidArgument if a depth file to decode is not a 16-bit
+// PNG or the encoding is none of these.
 absl::StatusOr<v1::Frame> ToApiFrame(const dataset::Frame& frame, const std::string& map_name,
                                      uint64_t sequence,
-                                     v1::DepthEncoding depth_encoding = kDefaultDepthEncoding);
+                                     v1::DepthEncoding depth_encoding = kDepthAsStored);
 
 // The frame's colour image as stored (PNG or JPEG) in a ClassifyImage request that asks
 // for the 2D-3D matches (the single-view baseline: client/cli/single_view.h). NotFound for a

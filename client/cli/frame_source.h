@@ -49,9 +49,10 @@ struct BagSourceOptions {
 struct FrameSourceOptions {
   int every = 1;       // every n-th frame from the first
   int max_frames = 0;  // at most this many frames; 0 = all
-  // Depth on the wire when the source re-encodes (client/frame_depth.h); PNG16 sends a
-  // dataset's 16-bit PNG files as stored.
-  v1::DepthEncoding depth_encoding = kDefaultDepthEncoding;
+  // Depth on the wire (client/frame_depth.h): kDepthAsStored sends a dataset's 16-bit PNG
+  // files as stored and everything else, bags too, as kDefaultDepthEncoding; PNG16 sends a
+  // dataset's files as stored.
+  v1::DepthEncoding depth_encoding = kDepthAsStored;
   BagSourceOptions bag;
 };
 

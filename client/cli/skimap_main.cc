@@ -2,7 +2,7 @@
 //
 //   skimap [--server=localhost:50051] maps ls | maps create ID [--resolution=0.05]
 //                                     | maps rm ID | maps info ID
-//   skimap stream DATASET|BAG --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=zstd]
+//   skimap stream DATASET|BAG --map=ID [--fps=0] [--resolution=0.05] [--depth_encoding=auto]
 //                                              (creates ID if missing; BAG: a ROS 1 .bag,
 //                                              a ROS 2 .mcap or .db3 or rosbag2 folder, with
 //                                              --depth_topic, --color_topic,
@@ -66,9 +66,10 @@ ABSL_FLAG(double, inflation_radius, 0,
 ABSL_FLAG(bool, keep_seen_through, false,
           "grid: keep obstacles that a later camera view saw through (by default they are "
           "cleared: docs/api.md, \"Seen-through obstacles\")");
-ABSL_FLAG(std::string, depth_encoding, "zstd",
-          "stream: depth on the wire, lossless: zstd (the fastest for the server, the default), "
-          "rvl, png16 (the dataset's files as stored) or raw");
+ABSL_FLAG(std::string, depth_encoding, "auto",
+          "stream: depth on the wire, lossless: auto (the default: a dataset's 16-bit PNG files "
+          "as stored, anything else, bags too, as zstd), zstd, rvl, png16 (the dataset's files "
+          "as stored) or raw");
 ABSL_FLAG(bool, with_journal, false,
           "export: also the map's journal (UpdatePoses then works on the imported frames)");
 ABSL_FLAG(std::string, as, "", "import: the new map's id (default: the id in the file)");
@@ -321,7 +322,9 @@ int main(int argc, char** argv) {
                                              recognition + "\""));
     }
     const std::string depth_encoding = absl::GetFlag(FLAGS_depth_encoding);
-    if (depth_encoding == "zstd") {
+    if (depth_encoding == "auto") {
+      options.depth_encoding = skimap::client::kDepthAsStored;
+    } else if (depth_encoding == "zstd") {
       options.depth_encoding = skimap::v1::DEPTH_ENCODING_ZSTD;
     } else if (depth_encoding == "rvl") {
       options.depth_encoding = skimap::v1::DEPTH_ENCODING_RVL;
@@ -330,7 +333,8 @@ int main(int argc, char** argv) {
     } else if (depth_encoding == "raw") {
       options.depth_encoding = skimap::v1::DEPTH_ENCODING_RAW_U16;
     } else {
-      return Fail(absl::InvalidArgumentError("--depth_encoding must be zstd, rvl, png16 or raw"));
+      return Fail(
+          absl::InvalidArgumentError("--depth_encoding must be auto, zstd, rvl, png16 or raw"));
     }
     absl::Status s = skimap::client::StreamDataset(*client, args[2], options);
     return s.ok() ? 0 : Fail(s);

@@ -29,9 +29,9 @@ struct StreamOptions {
   int max_frames = 0;  // send at most this many; 0 = all
   // Recognition on the map, when this stream creates it (an existing map keeps its own).
   std::optional<v1::RecognitionOptions> recognition;
-  // Depth on the wire (client/frame_depth.h): RVL unless told; PNG16 sends the files as
-  // stored.
-  v1::DepthEncoding depth_encoding = kDefaultDepthEncoding;
+  // Depth on the wire (FrameSourceOptions): a dataset's 16-bit PNG files as stored and
+  // anything else as zstd unless told.
+  v1::DepthEncoding depth_encoding = kDepthAsStored;
   BagSourceOptions bag;  // topics, frames and pairing of a ROS bag
 };
 

@@ -145,6 +145,27 @@ TEST(DatasetFrameSourceTest, OpenKeepsEveryNthFrameUpToMaxFrames) {
   EXPECT_EQ((*source)->total(), 20u);
 }
 
+TEST(DatasetFrameSourceTest, ByDefaultA16BitPngGoesAsStoredAndAnythingElseIsDecoded) {
+  const TumFolder folder("frame_source_as_stored", 3);
+  std::vector<dataset::Frame> frames = folder.Frames();
+  ASSERT_EQ(frames.size(), 3u);
+  // Frame 1's depth file is an 8-bit PNG: decoded, and refused as a zstd frame would be.
+  skimap::testing::ImWrite(frames[1].depth_path, cv::Mat(6, 8, CV_8UC1, cv::Scalar(7)));
+  DatasetFrameSource source(frames, DatasetFrameSource::Options());
+  const std::vector<FrameOrError> items = Drain(source);
+  ASSERT_EQ(items.size(), 3u);
+  for (const int i : {0, 2}) {
+    ASSERT_TRUE(items[i].ok()) << i << ": " << items[i].status();
+    EXPECT_EQ(items[i]->depth_encoding(), v1::DEPTH_ENCODING_PNG16);
+    std::ifstream in(frames[i].depth_path, std::ios::binary);
+    const std::string file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(items[i]->depth(), file);  // the bytes as stored
+  }
+  EXPECT_EQ(items[1].status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(items[1].status().message().find("not a 16-bit greyscale PNG"), std::string::npos)
+      << items[1].status();
+}
+
 TEST(DatasetFrameSourceTest, OpenRejectsAFolderWithoutADataset) {
   absl::StatusOr<std::unique_ptr<FrameSource>> source =
       OpenFrameSource("/nonexistent-frame-source", FrameSourceOptions());

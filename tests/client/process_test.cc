@@ -115,7 +115,7 @@ TEST(ProcessTest, CliStreamsRealFramesInEveryDepthEncodingAndRefusesAnUnknownOne
   };
   // Every encoding gives the same map: depth is lossless in each.
   uint64_t voxels = 0;
-  for (const std::string encoding : {"", "zstd", "rvl", "png16", "raw"}) {
+  for (const std::string encoding : {"", "auto", "zstd", "rvl", "png16", "raw"}) {
     const std::string map = encoding.empty() ? "default" : encoding;
     ASSERT_EQ(stream(map, encoding.empty() ? "" : "--depth_encoding=" + encoding), 0) << map;
     absl::StatusOr<v1::Map> m = client->GetMap("maps/" + map);
