@@ -16,9 +16,9 @@ void SetThreadNice(int nice) {
 
 ThreadPool::ThreadPool(int workers, int nice) : worker_count_(workers > 0 ? workers : 0) {
   for (size_t i = 0; i < worker_count_; ++i) {
-    threads_.emplace_back([this, i, nice] {
+    threads_.emplace_back([this, nice] {
       SetThreadNice(nice);
-      WorkerLoop(i);
+      WorkerLoop();
     });
   }
 }
@@ -32,47 +32,58 @@ ThreadPool::~ThreadPool() {
   for (std::thread& t : threads_) t.join();
 }
 
+void ThreadPool::RunRanges(const std::function<void(size_t, size_t)>& fn, size_t n, size_t ranges) {
+  for (;;) {
+    const size_t r = next_.fetch_add(1, std::memory_order_relaxed);
+    if (r >= ranges) return;
+    fn(r * n / ranges, (r + 1) * n / ranges);
+  }
+}
+
 void ThreadPool::ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn) {
   if (n == 0) return;
-  const size_t pieces = worker_count_ + 1;
   if (worker_count_ == 0 || n == 1) {
     fn(0, n);
     return;
   }
+  const size_t ranges = std::min(n, pieces());
   MutexLock call_lock(&call_mu_);
   {
     MutexLock lock(&mu_);
     fn_ = &fn;
     n_ = n;
-    pending_ = worker_count_;
+    ranges_ = ranges;
+    next_.store(0, std::memory_order_relaxed);
     ++generation_;
   }
   work_cv_.SignalAll();
-  // The caller takes the last piece.
-  fn((pieces - 1) * n / pieces, n);
+  RunRanges(fn, n, ranges);
+  // Every range is claimed; the ones still running belong to active workers. A worker
+  // that wakes after this call ended finds fn_ null (or a later call) and never sees fn.
   MutexLock lock(&mu_);
-  while (pending_ != 0) done_cv_.Wait(&mu_);
+  while (active_ != 0) done_cv_.Wait(&mu_);
   fn_ = nullptr;
 }
 
-void ThreadPool::WorkerLoop(size_t index) {
+void ThreadPool::WorkerLoop() {
   size_t seen = 0;
   for (;;) {
     const std::function<void(size_t, size_t)>* fn;
-    size_t n;
+    size_t n, ranges;
     {
       MutexLock lock(&mu_);
-      while (!stop_ && generation_ == seen) work_cv_.Wait(&mu_);
+      while (!stop_ && (fn_ == nullptr || generation_ == seen)) work_cv_.Wait(&mu_);
       if (stop_) return;
       seen = generation_;
       fn = fn_;
       n = n_;
+      ranges = ranges_;
+      ++active_;
     }
-    const size_t pieces = worker_count_ + 1;
-    (*fn)(index * n / pieces, (index + 1) * n / pieces);
+    RunRanges(*fn, n, ranges);
     {
       MutexLock lock(&mu_);
-      if (--pending_ == 0) done_cv_.Signal();
+      if (--active_ == 0) done_cv_.Signal();
     }
   }
 }

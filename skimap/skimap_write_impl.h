@@ -53,7 +53,7 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
   if (pool != nullptr && pool->workers() > 0 && n >= internal::kParallelMinItems &&
       runs.size() > 1) {
     // Pieces of about equal item counts: piece p takes the runs starting in its share.
-    const size_t pieces = static_cast<size_t>(pool->workers()) + 1;
+    const size_t pieces = pool->pieces();
     std::vector<size_t> piece_start(pieces + 1, runs.size());
     for (size_t p = 0, r = 0; p < pieces; ++p) {
       while (r < runs.size() && runs[r].begin < p * n / pieces) ++r;

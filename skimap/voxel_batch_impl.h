@@ -39,7 +39,7 @@ void VoxelBatch<V>::AddPoints(const Grid& grid, size_t count, Fn&& get, ThreadPo
   } else {
     // Piece p writes its runs at out + begin_p (room for every point), then the pieces are
     // moved together.
-    const size_t pieces = static_cast<size_t>(pool->workers()) + 1;
+    const size_t pieces = pool->pieces();
     std::vector<size_t> written(pieces), rejected(pieces);
     pool->ParallelFor(pieces, [&](size_t first, size_t last) {
       for (size_t p = first; p < last; ++p) {
@@ -86,7 +86,7 @@ void VoxelBatch<V>::AddRows(size_t rows, size_t cols, RowFn&& fill_row, ThreadPo
   Reserve(n_ + count);
   Item* out = storage_.data() + n_;
   const bool parallel = pool != nullptr && pool->workers() > 0 && count >= kParallelMinPoints;
-  const size_t pieces = parallel ? static_cast<size_t>(pool->workers()) + 1 : 1;
+  const size_t pieces = parallel ? pool->pieces() : 1;
   if (row_scratch_.size() < pieces) row_scratch_.resize(pieces);
   for (size_t p = 0; p < pieces; ++p) {
     RowScratch& s = row_scratch_[p];
@@ -189,7 +189,7 @@ void VoxelBatch<V>::Finalize(ThreadPool* pool) {
   }
   // Split by x into one range per thread, sort and merge each range on its own thread,
   // then move the merged ranges together.
-  const size_t parts = static_cast<size_t>(pool->workers()) + 1;
+  const size_t parts = pool->pieces();
   const std::vector<size_t> offsets = internal::PartitionByTopBits(
       sort_a_.data(), sort_b_.data(), n, ib, kb, std::min(bx, 16), parts);
   std::vector<size_t> merged(parts);

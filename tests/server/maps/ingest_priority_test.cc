@@ -7,6 +7,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <future>
@@ -62,11 +63,23 @@ int ThreadsAtNiceSettled(int nice, int want) {
 TEST(IngestPriorityTest, PoolAndQueueWorkersRunAtTheirNiceAndCallersDoNot) {
   const int before = ThisThreadNice();
   ThreadPool pool(1, 7);
+  const std::thread::id caller = std::this_thread::get_id();
   std::promise<int> worker;
-  pool.ParallelFor(2, [&](size_t first, size_t) {
-    if (first == 0) worker.set_value(ThisThreadNice());  // piece 0 runs on the worker
+  std::atomic<bool> worker_ran{false};
+  pool.ParallelFor(pool.pieces(), [&](size_t, size_t) {
+    if (std::this_thread::get_id() != caller) {
+      if (!worker_ran.exchange(true)) worker.set_value(ThisThreadNice());
+      return;
+    }
+    // The caller leaves the ranges to the worker until it has run one (ranges are claimed
+    // one at a time by whichever thread is free).
+    for (int i = 0; i < 20000 && !worker_ran.load(); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
   });
-  EXPECT_EQ(worker.get_future().get(), 7);
+  std::future<int> nice = worker.get_future();
+  ASSERT_EQ(nice.wait_for(std::chrono::seconds(0)), std::future_status::ready);
+  EXPECT_EQ(nice.get(), 7);
   EXPECT_EQ(ThisThreadNice(), before);
   WorkQueue queue({.capacity = 4, .nice = 9});
   EXPECT_EQ(queue.Run([] { return ThisThreadNice(); }), 9);
