@@ -155,6 +155,17 @@ class VoxelBatch {
     n_ = items.size();
   }
 
+  // Makes this batch a copy of `other`'s items, finalized as `other` is, with room for
+  // just those: what a built frame keeps while the batch it was built in builds the next.
+  void CopyItemsFrom(const VoxelBatch& other) {
+    Clear();
+    Reserve(other.n_);
+    std::copy(other.storage_.begin(), other.storage_.begin() + other.n_, storage_.begin());
+    n_ = other.n_;
+    rejected_ = other.rejected_;
+    finalized_ = other.finalized_;
+  }
+
   // Appends `items` to a finalized batch, which stays finalized.
   // REQUIRES: finalized(); keys strictly increasing in (x, y, z) order, the first one after
   // the batch's last, every component in [kMinKey, kMaxKey].

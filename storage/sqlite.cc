@@ -53,6 +53,13 @@ absl::Status Statement::BindBlob(int index, std::string_view value) {
                "bind");
 }
 
+absl::Status Statement::BindBlobInPlace(int index, std::string_view value) {
+  static const char kEmpty = 0;
+  return Check(sqlite3_bind_blob64(stmt_, index, value.empty() ? &kEmpty : value.data(),
+                                   value.size(), SQLITE_STATIC),
+               "bind");
+}
+
 absl::StatusOr<bool> Statement::Step() {
   const int rc = sqlite3_step(stmt_);
   if (rc == SQLITE_ROW) return true;

@@ -183,7 +183,8 @@ absl::StatusOr<uint64_t> SqliteMapStore::AppendJournal(const std::string& id,
     SK_RETURN_IF_ERROR(insert.BindText(1, id));
     SK_RETURN_IF_ERROR(insert.BindInt(2, int64_t(++position)));
     SK_RETURN_IF_ERROR(insert.BindInt(3, r.kind));
-    SK_RETURN_IF_ERROR(insert.BindBlob(4, r.payload));
+    // `records` outlives `insert`: no copy of the payload.
+    SK_RETURN_IF_ERROR(insert.BindBlobInPlace(4, r.payload));
     SK_RETURN_IF_ERROR(insert.Run());
   }
   SK_ASSIGN_OR_RETURN(update, db_->Prepare("UPDATE maps SET last_position = ? WHERE id = ?"));

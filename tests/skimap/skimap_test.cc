@@ -320,6 +320,33 @@ TEST(SkiMapTest, ParallelAndSerialBatchesGiveTheSameMap) {
   EXPECT_DOUBLE_EQ(total, 200000 - batch.rejected());
 }
 
+TEST(VoxelBatchTest, CopyItemsFromCopiesTheItemsAndTheirStateOnly) {
+  const Grid grid(0.1);
+  VoxelBatch<WeightVoxel> built, sealed;
+  for (int i = 0; i < 1000; ++i) built.Add(grid, 0.01 * i, 0, 0, {1});
+  EXPECT_FALSE(built.Add(grid, NAN, 0, 0, {1}));
+  built.Finalize();
+  sealed.Add(grid, 5, 5, 5, {3});  // replaced, not kept
+  sealed.CopyItemsFrom(built);
+  ASSERT_EQ(sealed.size(), built.size());
+  EXPECT_EQ(sealed.size(), 100u);
+  EXPECT_TRUE(sealed.finalized());
+  EXPECT_EQ(sealed.rejected(), 1u);
+  for (size_t i = 0; i < built.size(); ++i) {
+    EXPECT_EQ(sealed.items()[i].key, built.items()[i].key);
+    EXPECT_EQ(sealed.items()[i].data.weight, built.items()[i].data.weight);
+  }
+  // The source builds on unchanged; an unfinalized source gives an unfinalized copy.
+  built.Clear();
+  built.Add(grid, 1, 1, 1, {2});
+  built.Add(grid, 0, 0, 0, {2});
+  sealed.CopyItemsFrom(built);
+  EXPECT_EQ(sealed.size(), 2u);
+  EXPECT_FALSE(sealed.finalized());
+  sealed.Finalize();
+  EXPECT_LT(sealed.items()[0].key, sealed.items()[1].key);
+}
+
 TEST(VoxelBatchTest, ParallelAddAndFinalizeMatchSerial) {
   ThreadPool pool(2);
   const Grid grid(0.02, {-0.5, 0.25, 0});

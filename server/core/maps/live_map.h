@@ -268,7 +268,7 @@ class LiveMap {
   // Appends `records` to the store in one durable append; returns the last one's position
   // (0 without a store). The store's error otherwise, prefixed "journal: ": the writes must
   // then not be applied or acknowledged.
-  absl::StatusOr<uint64_t> Journal(std::vector<storage::JournalRecord> records);
+  absl::StatusOr<uint64_t> Journal(const std::vector<storage::JournalRecord>& records);
   // Stages `frame` (with frame.pose) in every stage; the first stage's counts.
   perception::IntegrationStats StageFrame(const perception::RgbdFrame& frame,
                                           FrameStage::Sign sign);
@@ -303,6 +303,9 @@ class LiveMap {
   FrameIndex index_;
   uint64_t arrivals_ = 0;  // arrival order of frames in maps without a store
   std::vector<std::unique_ptr<FrameStage>> stages_;  // in order
+  // Payload strings of the last group's journal records, up to 16 MB, which the next group
+  // serializes into again (a megabyte each: new memory would fault its pages in).
+  std::vector<std::string> journal_buffers_;
 
   Mutex spare_mu_;
   std::vector<perception::RgbdFrame> spare_frames_ ABSL_GUARDED_BY(spare_mu_);

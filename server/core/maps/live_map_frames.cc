@@ -21,6 +21,8 @@ constexpr char kFrameWriteKind = 0;
 // Eight 640x480 frames of raw colour are about 9 MB.
 constexpr size_t kMaxGroupFrames = 16;
 constexpr size_t kMaxGroupBytes = size_t{32} << 20;
+// Journal payload buffers a map keeps between groups (LiveMap::journal_buffers_).
+constexpr size_t kKeptJournalBytes = size_t{16} << 20;
 
 }  // namespace
 
@@ -161,7 +163,7 @@ void LiveMap::WriteFramesOnWorker(std::shared_ptr<FrameWrite> first) {
   }
 }
 
-absl::StatusOr<uint64_t> LiveMap::Journal(std::vector<storage::JournalRecord> records) {
+absl::StatusOr<uint64_t> LiveMap::Journal(const std::vector<storage::JournalRecord>& records) {
   if (options_.store == nullptr) return 0;
   const Clock::time_point start = Clock::now();
   absl::StatusOr<uint64_t> position = options_.store->AppendJournal(id_, records);
@@ -254,17 +256,26 @@ void LiveMap::IntegrateOnWorker(std::span<FrameWrite* const> writes, Source sour
   if (options_.store != nullptr && source == Source::kAppend) {
     // Durable before it changes the map or is acknowledged: the records are appended on the
     // journal threads while this thread stages the frames, and applied only once durable.
-    std::vector<storage::JournalRecord> records;
-    for (Slot* v : valid) {
-      records.push_back({storage::JournalRecord::kFrame, v->write->frame->SerializeAsString()});
-      v->entry.record_bytes = records.back().payload.size();
+    std::vector<storage::JournalRecord> records(valid.size());
+    if (journal_buffers_.size() < valid.size()) journal_buffers_.resize(valid.size());
+    for (size_t i = 0; i < valid.size(); ++i) {
+      records[i].kind = storage::JournalRecord::kFrame;
+      records[i].payload = std::move(journal_buffers_[i]);
+      (void)valid[i]->write->frame->SerializeToString(&records[i].payload);
+      valid[i]->entry.record_bytes = records[i].payload.size();
     }
     std::promise<absl::StatusOr<uint64_t>> appended;
     std::future<absl::StatusOr<uint64_t>> durable = appended.get_future();
-    auto append = [&] { appended.set_value(Journal(std::move(records))); };
+    auto append = [&] { appended.set_value(Journal(records)); };
     if (options_.journal == nullptr || !options_.journal->Submit(append)) append();
     for (Slot* v : valid) stage(v);
     absl::StatusOr<uint64_t> position_or = durable.get();
+    // Kept for the next group up to kKeptJournalBytes in all.
+    size_t kept = 0;
+    for (size_t i = 0; i < records.size(); ++i) {
+      kept += records[i].payload.capacity();
+      journal_buffers_[i] = kept <= kKeptJournalBytes ? std::move(records[i].payload) : "";
+    }
     if (!position_or.ok()) {
       for (const std::unique_ptr<FrameStage>& s : stages_) s->Clear();
       for (Slot* v : valid) v->write->ack = position_or.status();
