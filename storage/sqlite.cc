@@ -45,18 +45,21 @@ absl::Status Statement::BindText(int index, std::string_view value) {
       sqlite3_bind_text64(stmt_, index, value.data(), value.size(), SQLITE_TRANSIENT, SQLITE_UTF8),
       "bind");
 }
-absl::Status Statement::BindBlob(int index, std::string_view value) {
-  // A zero-length blob must still be a blob (not NULL): pass a non-null pointer.
+namespace {
+// A zero-length blob must still be a blob (not NULL): a non-null pointer for it.
+const char* BlobData(std::string_view value) {
   static const char kEmpty = 0;
-  return Check(sqlite3_bind_blob64(stmt_, index, value.empty() ? &kEmpty : value.data(),
-                                   value.size(), SQLITE_TRANSIENT),
+  return value.empty() ? &kEmpty : value.data();
+}
+}  // namespace
+
+absl::Status Statement::BindBlob(int index, std::string_view value) {
+  return Check(sqlite3_bind_blob64(stmt_, index, BlobData(value), value.size(), SQLITE_TRANSIENT),
                "bind");
 }
 
 absl::Status Statement::BindBlobInPlace(int index, std::string_view value) {
-  static const char kEmpty = 0;
-  return Check(sqlite3_bind_blob64(stmt_, index, value.empty() ? &kEmpty : value.data(),
-                                   value.size(), SQLITE_STATIC),
+  return Check(sqlite3_bind_blob64(stmt_, index, BlobData(value), value.size(), SQLITE_STATIC),
                "bind");
 }
 

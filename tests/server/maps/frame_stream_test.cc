@@ -1,10 +1,12 @@
 // StreamFrames over real gRPC: every kind of bad frame gets its status in its ack and the
 // stream goes on.
 #include <algorithm>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
 
+#include "codec/image_files.h"
 #include "codec/zstd_frame.h"
 #include "tests/common/synthetic_scene.h"
 #include "tests/server/maps/server_fixture.h"
@@ -26,6 +28,19 @@ void SetZstdDepth(v1::Frame& f, const std::string& raw, size_t cut = 0,
   const std::string packed = *perception::ZstdCompress(raw);
   f.set_depth_encoding(v1::DEPTH_ENCODING_ZSTD);
   f.set_depth(packed.substr(0, packed.size() - std::min(cut, packed.size())) + tail);
+}
+
+// Replaces the frame's raw depth with the same pixels as a 16-bit PNG (what `skimap stream`
+// sends for a dataset's depth files, as stored) less its last `cut` bytes; with `flip`, one
+// byte in the middle changed (a chunk's CRC then fails).
+void SetPngDepth(v1::Frame& f, size_t cut, bool flip = false) {
+  cv::Mat pixels(static_cast<int>(f.intrinsics().height()),
+                 static_cast<int>(f.intrinsics().width()), CV_16UC1);
+  std::memcpy(pixels.data, f.depth().data(), std::min(f.depth().size(), pixels.total() * 2));
+  std::string png = *perception::EncodeImage(".png", pixels);
+  if (flip) png[png.size() / 2] = static_cast<char>(png[png.size() / 2] ^ 0x5a);
+  f.set_depth_encoding(v1::DEPTH_ENCODING_PNG16);
+  f.set_depth(png.substr(0, png.size() - std::min(cut, png.size())));
 }
 
 TEST_F(ServerTest, BadFramesGetTheirStatusAndTheStreamContinues) {
@@ -76,6 +91,11 @@ TEST_F(ServerTest, BadFramesGetTheirStatusAndTheStreamContinues) {
       {"zstd depth of twice the image",
        [](v1::Frame& f) { SetZstdDepth(f, f.depth() + f.depth()); }, Code::kInvalidArgument,
        "depth"},
+      // The CLI's default for a dataset's depth files (sent as stored), damaged on disk.
+      {"truncated png depth", [](v1::Frame& f) { SetPngDepth(f, 100); }, Code::kInvalidArgument,
+       "depth"},
+      {"png depth with a bad crc", [](v1::Frame& f) { SetPngDepth(f, 0, true); },
+       Code::kInvalidArgument, "depth"},
       {"no depth encoding",
        [](v1::Frame& f) { f.set_depth_encoding(v1::DEPTH_ENCODING_UNSPECIFIED); },
        Code::kInvalidArgument, "depth_encoding"},
@@ -109,12 +129,17 @@ TEST_F(ServerTest, BadFramesGetTheirStatusAndTheStreamContinues) {
   v1::Frame last = good;
   last.set_sequence(1);
   ASSERT_TRUE(stream->Send(last).ok());
+  v1::Frame png = good;  // the damaged PNGs' undamaged original
+  png.set_sequence(2);
+  SetPngDepth(png, 0);
+  ASSERT_TRUE(stream->Send(png).ok());
   auto acks = stream->Finish();
   ASSERT_TRUE(acks.ok()) << acks.status();
-  ASSERT_EQ(acks->size(), bad.size() + 2);
+  ASSERT_EQ(acks->size(), bad.size() + 3);
   std::map<uint64_t, v1::FrameAck> by_sequence;
   for (const v1::FrameAck& a : *acks) by_sequence[a.sequence()] = a;
   EXPECT_EQ(by_sequence.at(1).code(), 0) << by_sequence.at(1).message();
+  EXPECT_EQ(by_sequence.at(2).code(), 0) << by_sequence.at(2).message();
   for (size_t i = 0; i < bad.size(); ++i) {
     const uint64_t seq = bad[i].name == "duplicate sequence" ? 0 : 100 + i;
     if (seq == 0) continue;  // shares sequence 0 with the good frame; checked below
@@ -132,7 +157,7 @@ TEST_F(ServerTest, BadFramesGetTheirStatusAndTheStreamContinues) {
   EXPECT_EQ(zero_exists, 1);
   auto map = client_->GetMap("maps/stream");
   ASSERT_TRUE(map.ok());
-  EXPECT_EQ(map->stats().frames(), 2u);
+  EXPECT_EQ(map->stats().frames(), 3u);  // 0, 1 and the PNG
 }
 
 TEST_F(ServerTest, UnaryIntegrateFrameReturnsErrorsAsStatus) {
