@@ -120,7 +120,10 @@ class VoxelBatch {
   // Adds rows x cols observations (an image) row by row: fill_row(r, KeyRow row, V* data)
   // fills row r's `cols` keys, states and data (perception/row_projection.h computes a
   // depth row's keys 4 pixels at a time: the row's arrays are separate). Equal
-  // consecutive keys merge as in AddPoints. With a pool, rows are split over its threads
+  // consecutive keys merge as in AddPoints, and a row's runs also merge into earlier items
+  // of the same key (the rows above, most often), so that Finalize sorts a fraction of them:
+  // on a robot's 640x480 frame at 2 cm (223 k points, 49 k distinct voxels) 53 k items
+  // instead of 142 k runs. With a pool, rows are split over its threads
   // and fill_row is called concurrently for different rows. Scratch rows are kept in the
   // batch (no allocation once they have grown to `cols`).
   template <class RowFn>
@@ -238,14 +241,27 @@ class VoxelBatch {
   template <class Fn>
   static size_t AddRange(const Grid& grid, size_t begin, size_t end, Fn& get, Item* out,
                          size_t* rejected);
-  // One thread's row of AddRows.
+  // One thread's row of AddRows, and its table of recent items.
   struct RowScratch {
     std::vector<int32_t> x, y, z;
     std::vector<uint8_t> state;
     std::vector<V> data;
+    std::vector<uint32_t> recent;
   };
-  // AddRows for rows [begin, end): the run-merged observations to out[0..); returns how
-  // many.
+  // AddRows merges a row's runs with earlier items of the same key found through a small
+  // direct-mapped table (kRecentSlots entries of 4 bytes: it stays in the L1 cache): an
+  // image's neighbouring rows see the same voxels, so Finalize gets a fraction of the runs.
+  static constexpr size_t kRecentBits = 13;
+  static constexpr size_t kRecentSlots = size_t{1} << kRecentBits;
+  static constexpr uint32_t kNoItem = ~uint32_t{0};
+  static uint32_t RecentSlot(const VoxelKey& k) {
+    const uint32_t h = static_cast<uint32_t>(k.x) * 0x9E3779B1u ^
+                       static_cast<uint32_t>(k.y) * 0x85EBCA77u ^
+                       static_cast<uint32_t>(k.z) * 0xC2B2AE3Du;
+    return h >> (32 - kRecentBits);
+  }
+  // AddRows for rows [begin, end): the merged observations to out[0..) (keys may still
+  // repeat: Finalize merges them); returns how many.
   template <class RowFn>
   static size_t AddRowRange(size_t begin, size_t end, size_t cols, RowFn& fill_row,
                             RowScratch& scratch, Item* out, size_t* rejected);

@@ -62,10 +62,15 @@ template <Voxel V>
 template <class RowFn>
 size_t VoxelBatch<V>::AddRowRange(size_t begin, size_t end, size_t cols, RowFn& fill_row,
                                   RowScratch& s, Item* out, size_t* rejected) {
-  RunWriter runs{out};
+  // s.recent[h]: the index in out of the last item whose key hashes to h (kNoItem: none).
+  // Indices are 32-bit: a range of 4 G points or more (no camera's) is only run-merged.
+  s.recent.assign(kRecentSlots, kNoItem);
+  const bool merge_rows = (end - begin) * cols < kNoItem;
+  size_t n = 0;  // items in out[0..)
   size_t no_key = 0;
   for (size_t r = begin; r < end; ++r) {
     fill_row(r, KeyRow{s.x.data(), s.y.data(), s.z.data(), s.state.data()}, s.data.data());
+    RunWriter runs{out + n};
     for (size_t c = 0; c < cols; ++c) {
       const uint8_t state = s.state[c];
       if (state != kUse) {
@@ -74,9 +79,27 @@ size_t VoxelBatch<V>::AddRowRange(size_t begin, size_t end, size_t cols, RowFn& 
       }
       runs.Add(VoxelKey{s.x[c], s.y[c], s.z[c]}, s.data[c]);
     }
+    // The row's runs join an earlier item with the same key when the table remembers one
+    // (most often the run above, in the previous row), and are kept in place otherwise.
+    const size_t row_end = n + runs.Finish();
+    if (!merge_rows) {
+      n = row_end;
+      continue;
+    }
+    for (size_t i = n; i < row_end; ++i) {
+      const uint32_t h = RecentSlot(out[i].key);
+      const uint32_t j = s.recent[h];
+      if (j != kNoItem && SameKey(out[j].key, out[i].key)) {
+        out[j].data += out[i].data;
+        continue;
+      }
+      s.recent[h] = static_cast<uint32_t>(n);
+      if (n != i) out[n] = std::move(out[i]);
+      ++n;
+    }
   }
   *rejected += no_key;
-  return runs.Finish();
+  return n;
 }
 
 template <Voxel V>
