@@ -78,15 +78,16 @@ void UnfilterPixels(uint8_t* row, const uint8_t* prev, size_t n) {
 }
 
 #if defined(__SSE2__)
-// Average and Paeth (kType 3, 4) for 3- and 4-byte pixels, a pixel's channels at once in
-// 16-bit lanes (SSE2 is part of x86-64): the same arithmetic and ties as UnfilterPixels,
-// whose byte-wise branches the colour images' Paeth rows mispredicted (4.5 % of skimapd's
-// CPU while streaming PNG folders). Reads 4 bytes at a pixel, so the last pixel of a row
-// of 3-byte pixels goes to UnfilterPixels' loop.
-template <int kType, size_t kBpp>
-void UnfilterPixelsSse2(uint8_t* row, const uint8_t* prev, size_t n) {
+// Paeth for 3- and 4-byte pixels, a pixel's channels at once in 16-bit lanes (SSE2 is
+// part of x86-64): the same arithmetic and ties as UnfilterPixels<4, kBpp>, whose byte-wise
+// branches the colour images' Paeth rows mispredicted (4.5 % of skimapd's CPU while
+// streaming PNG folders). Reads 4 bytes at a pixel, so the last pixel of a row of 3-byte
+// pixels is done byte by byte. (Average the same way was slower than UnfilterPixels: its
+// byte loop has no branch to mispredict.)
+template <size_t kBpp>
+void UnfilterPaethSse2(uint8_t* row, const uint8_t* prev, size_t n) {
   static_assert(kBpp == 3 || kBpp == 4);
-  if (n < 2 * kBpp) return UnfilterPixels<kType, kBpp>(row, prev, n);
+  if (n < 2 * kBpp) return UnfilterPixels<4, kBpp>(row, prev, n);
   const __m128i zero = _mm_setzero_si128();
   auto load = [&](const uint8_t* p) {
     uint32_t w;
@@ -94,28 +95,22 @@ void UnfilterPixelsSse2(uint8_t* row, const uint8_t* prev, size_t n) {
     return _mm_unpacklo_epi8(_mm_cvtsi32_si128(static_cast<int>(w)), zero);
   };
   auto abs16 = [](__m128i v) { return _mm_max_epi16(v, _mm_sub_epi16(_mm_setzero_si128(), v)); };
-  // The first pixel: no left neighbour (Paeth(0, b, 0) is b, Average's is b / 2).
-  for (size_t k = 0; k < kBpp; ++k) {
-    row[k] = static_cast<uint8_t>(row[k] + (kType == 3 ? prev[k] >> 1 : prev[k]));
-  }
+  // The first pixel: no left neighbour (Paeth(0, b, 0) is b).
+  for (size_t k = 0; k < kBpp; ++k) row[k] = static_cast<uint8_t>(row[k] + prev[k]);
   __m128i a = load(row), c = load(prev);
   const __m128i low_byte = _mm_set1_epi16(0xff);
   size_t i = kBpp;
   for (; i + 4 <= n; i += kBpp) {
     const __m128i b = load(prev + i), x = load(row + i);
-    __m128i predictor;
-    if constexpr (kType == 3) {
-      predictor = _mm_srli_epi16(_mm_add_epi16(a, b), 1);
-    } else {
-      const __m128i bc = _mm_sub_epi16(b, c), ac = _mm_sub_epi16(a, c);
-      const __m128i pa = abs16(bc), pb = abs16(ac), pc = abs16(_mm_add_epi16(bc, ac));
-      // a when pa <= pb and pa <= pc, else b when pb <= pc, else c.
-      const __m128i not_a = _mm_or_si128(_mm_cmpgt_epi16(pa, pb), _mm_cmpgt_epi16(pa, pc));
-      const __m128i not_b = _mm_cmpgt_epi16(pb, pc);
-      const __m128i b_or_c = _mm_or_si128(_mm_and_si128(not_b, c), _mm_andnot_si128(not_b, b));
-      predictor = _mm_or_si128(_mm_and_si128(not_a, b_or_c), _mm_andnot_si128(not_a, a));
-      c = b;
-    }
+    const __m128i bc = _mm_sub_epi16(b, c), ac = _mm_sub_epi16(a, c);
+    const __m128i pa = abs16(bc), pb = abs16(ac), pc = abs16(_mm_add_epi16(bc, ac));
+    // a when pa <= pb and pa <= pc, else b when pb <= pc, else c.
+    const __m128i not_a = _mm_or_si128(_mm_cmpgt_epi16(pa, pb), _mm_cmpgt_epi16(pa, pc));
+    const __m128i not_b = _mm_cmpgt_epi16(pb, pc);
+    const __m128i b_or_c = _mm_or_si128(_mm_and_si128(not_b, c), _mm_andnot_si128(not_b, b));
+    const __m128i predictor =
+        _mm_or_si128(_mm_and_si128(not_a, b_or_c), _mm_andnot_si128(not_a, a));
+    c = b;
     a = _mm_and_si128(_mm_add_epi16(x, predictor), low_byte);
     const uint32_t w = static_cast<uint32_t>(_mm_cvtsi128_si32(_mm_packus_epi16(a, zero)));
     std::memcpy(row + i, &w, kBpp);
@@ -124,8 +119,7 @@ void UnfilterPixelsSse2(uint8_t* row, const uint8_t* prev, size_t n) {
   for (; i + kBpp <= n; i += kBpp) {
     for (size_t k = 0; k < kBpp; ++k) {
       const int left = row[i - kBpp + k], b = prev[i + k], upper_left = prev[i - kBpp + k];
-      const int predictor = kType == 3 ? (left + b) >> 1 : Paeth(left, b, upper_left);
-      row[i + k] = static_cast<uint8_t>(row[i + k] + predictor);
+      row[i + k] = static_cast<uint8_t>(row[i + k] + Paeth(left, b, upper_left));
     }
   }
 }
@@ -138,13 +132,11 @@ bool Unfilter(int type, uint8_t* row, const uint8_t* prev, size_t n, size_t bpp)
   using Fn = void (*)(uint8_t*, const uint8_t*, size_t);
   static constexpr Fn kPixels[3][4] = {
     {UnfilterPixels<1, 1>, UnfilterPixels<1, 2>, UnfilterPixels<1, 3>, UnfilterPixels<1, 4>},
+    {UnfilterPixels<3, 1>, UnfilterPixels<3, 2>, UnfilterPixels<3, 3>, UnfilterPixels<3, 4>},
 #if defined(__SSE2__)
-    {UnfilterPixels<3, 1>, UnfilterPixels<3, 2>, UnfilterPixelsSse2<3, 3>,
-     UnfilterPixelsSse2<3, 4>},
-    {UnfilterPixels<4, 1>, UnfilterPixels<4, 2>, UnfilterPixelsSse2<4, 3>, UnfilterPixelsSse2<4, 4>}
+    {UnfilterPixels<4, 1>, UnfilterPixels<4, 2>, UnfilterPaethSse2<3>, UnfilterPaethSse2<4>}
   };
 #else
-    {UnfilterPixels<3, 1>, UnfilterPixels<3, 2>, UnfilterPixels<3, 3>, UnfilterPixels<3, 4>},
     {UnfilterPixels<4, 1>, UnfilterPixels<4, 2>, UnfilterPixels<4, 3>, UnfilterPixels<4, 4>}
   };
 #endif
