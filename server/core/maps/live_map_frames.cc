@@ -360,11 +360,22 @@ v1::FrameAck LiveMap::MakeAck(uint64_t sequence, const perception::IntegrationSt
 
 perception::IntegrationStats LiveMap::StageFrame(const perception::RgbdFrame& frame,
                                                  FrameStage::Sign sign) {
-  perception::IntegrationStats first;
-  for (size_t i = 0; i < stages_.size(); ++i) {
-    const perception::IntegrationStats stats = stages_[i]->Stage(frame, sign);
-    if (i == 0) first = stats;
+  // The stages after the first (free space) are offered to a decoder thread, to run beside
+  // the first (the frame's batch, on the pool): their serial parts then use a core the
+  // batch's leaves idle. Whatever no decoder thread has started when the first is done,
+  // this thread runs. The stages own separate batches; only the frame is shared (const).
+  auto rest = std::make_shared<DecodePart>();
+  auto stage_rest = [this, &frame, sign] {
+    for (size_t i = 1; i < stages_.size(); ++i) stages_[i]->Stage(frame, sign);
+    return absl::OkStatus();
+  };
+  if (stages_.size() > 1 && options_.decoder != nullptr) {
+    // The task touches the map and the frame only if it claims the part, and then this
+    // thread waits for it below.
+    (void)options_.decoder->TrySubmit([rest, stage_rest] { rest->RunIfUnclaimed(stage_rest); });
   }
+  const perception::IntegrationStats first = stages_[0]->Stage(frame, sign);
+  if (!rest->RunIfUnclaimed(stage_rest)) rest->finished.wait();
   return first;
 }
 
