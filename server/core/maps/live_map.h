@@ -269,7 +269,8 @@ class LiveMap {
   // (0 without a store). The store's error otherwise, prefixed "journal: ": the writes must
   // then not be applied or acknowledged.
   absl::StatusOr<uint64_t> Journal(const std::vector<storage::JournalRecord>& records);
-  // Stages `frame` (with frame.pose) in every stage; the first stage's counts.
+  // Stages `frame` (with frame.pose) in every stage; the first stage's counts. The stages
+  // after the first may run on a decoder thread meanwhile; all are done on return.
   perception::IntegrationStats StageFrame(const perception::RgbdFrame& frame,
                                           FrameStage::Sign sign);
   // Applies every stage's staged changes under the exclusive lock; `frames_added` is added
