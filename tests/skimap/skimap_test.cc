@@ -375,7 +375,7 @@ TEST(VoxelBatchTest, AddRowsMergesRepeatedKeysAcrossRows) {
   reference.Finalize();
   ASSERT_EQ(reference.size(), 16u * 32u * 2u);
   ThreadPool pool(2);
-  VoxelBatch<RGBWeightedVoxel> batch;  // reused: its tables keep the previous rounds' entries
+  VoxelBatch<RGBWeightedVoxel> batch;  // reused across rounds, as a map's stage reuses it
   for (ThreadPool* p : {static_cast<ThreadPool*>(nullptr), &pool, &pool}) {
     batch.Clear();
     batch.AddRows(kRows, kCols, fill, p);

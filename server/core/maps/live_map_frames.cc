@@ -360,20 +360,24 @@ v1::FrameAck LiveMap::MakeAck(uint64_t sequence, const perception::IntegrationSt
 
 perception::IntegrationStats LiveMap::StageFrame(const perception::RgbdFrame& frame,
                                                  FrameStage::Sign sign) {
-  // The stages after the first (free space) are offered to a decoder thread, to run beside
-  // the first (the frame's batch, on the pool): their serial parts then use a core the
-  // batch's leaves idle. Whatever no decoder thread has started when the first is done,
-  // this thread runs. The stages own separate batches; only the frame is shared (const).
-  auto rest = std::make_shared<DecodePart>();
+  // stages_[0] is the frame's batch (on the pool); the stages after it (free space) are
+  // offered to a decoder thread, to run beside it: their serial parts then use a core the
+  // batch leaves idle. Whatever no decoder thread has started when the first is done, this
+  // thread runs (a claim-once part, as a frame's decode parts). The stages own separate
+  // batches; only the frame is shared (const).
   auto stage_rest = [this, &frame, sign] {
     for (size_t i = 1; i < stages_.size(); ++i) stages_[i]->Stage(frame, sign);
     return absl::OkStatus();
   };
-  if (stages_.size() > 1 && options_.decoder != nullptr) {
-    // The task touches the map and the frame only if it claims the part, and then this
-    // thread waits for it below.
-    (void)options_.decoder->TrySubmit([rest, stage_rest] { rest->RunIfUnclaimed(stage_rest); });
+  if (stages_.size() == 1 || options_.decoder == nullptr) {
+    const perception::IntegrationStats first = stages_[0]->Stage(frame, sign);
+    (void)stage_rest();
+    return first;
   }
+  auto rest = std::make_shared<DecodePart>();
+  // The task touches the map and the frame only if it claims the part, and then this
+  // thread waits for it below.
+  (void)options_.decoder->TrySubmit([rest, stage_rest] { rest->RunIfUnclaimed(stage_rest); });
   const perception::IntegrationStats first = stages_[0]->Stage(frame, sign);
   if (!rest->RunIfUnclaimed(stage_rest)) rest->finished.wait();
   return first;
