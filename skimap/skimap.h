@@ -8,8 +8,9 @@
 //   map.Deintegrate(batch);                     // voxel -= data; emptied voxels are freed
 //
 // Structure: the x level is a SkipList of columns; a column holds a y skip list whose
-// values are z skip lists of voxels, all nodes from the column's own NodePool. A voxel whose
-// IsEmpty() turns true is erased and its memory reused; an emptied z list, y entry or
+// values are the z level of each (x, y) column: its voxels as one sorted run of (z, value)
+// entries (ZRow, z_row.h), all memory from the column's own NodePool. A voxel whose
+// IsEmpty() turns true is erased and its memory reused; an emptied z run, y entry or
 // column is removed too, so de-integrating everything returns the map to its empty size.
 // Keys and the world <-> key conversion are in grid.h (range ±2^20 per axis).
 //
@@ -43,20 +44,9 @@
 #include "skimap/skip_list.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
+#include "skimap/z_row.h"
 
 namespace skimap {
-
-// What a write did.
-struct WriteStats {
-  size_t voxels_touched = 0;  // distinct voxels updated, created or removed
-  size_t voxels_created = 0;
-  size_t voxels_removed = 0;
-  void operator+=(const WriteStats& o) {
-    voxels_touched += o.voxels_touched;
-    voxels_created += o.voxels_created;
-    voxels_removed += o.voxels_removed;
-  }
-};
 
 template <Voxel V>
 class SkiMap {
@@ -68,8 +58,7 @@ class SkiMap {
     SkipListOptions lists;       // height policy and RNG seed of every skip list
     ThreadPool* pool = nullptr;  // threads for batch writes (not owned); nullptr = caller
   };
-  using ZList = SkipListCore<int32_t, V>;
-  using ZNode = typename ZList::Node;
+  using ZList = ZRow<V>;  // the z level of one (x, y) column (z_row.h)
 
   // A read-only view of one (x, y) column of voxels, ordered by z.
   class ZColumn {
@@ -78,28 +67,28 @@ class SkiMap {
     // fn(int32_t kz, const V&) for every voxel, ascending z.
     template <class Fn>
     void ForEach(Fn&& fn) const {
-      for (const ZNode* n = list_.First(); n != nullptr; n = n->next[0]) fn(n->key, n->value);
+      for (const auto& e : list_) fn(e.key, e.value);
     }
     // fn(int32_t kz, const V&) for lo <= kz <= hi, ascending.
     template <class Fn>
     void ForEachInRange(int32_t lo, int32_t hi, Fn&& fn) const {
-      for (const ZNode* n = list_.LowerBound(lo); n != nullptr && n->key <= hi; n = n->next[0]) {
-        fn(n->key, n->value);
-      }
+      const auto [first, last] = list_.Range(lo, hi);
+      for (auto* e = first; e != last; ++e) fn(e->key, e->value);
     }
     // The same while fn returns true: stops after the first false.
     template <class Fn>
     void ForEachInRangeWhile(int32_t lo, int32_t hi, Fn&& fn) const {
-      for (const ZNode* n = list_.LowerBound(lo); n != nullptr && n->key <= hi; n = n->next[0]) {
-        if (!fn(n->key, n->value)) return;
+      const auto [first, last] = list_.Range(lo, hi);
+      for (auto* e = first; e != last; ++e) {
+        if (!fn(e->key, e->value)) return;
       }
     }
     size_t size() const { return list_.size(); }
     // Key of the highest voxel and the voxel (REQUIRES: size() > 0, always true for the
-    // columns ForEachColumn hands out). O(log n).
+    // columns ForEachColumn hands out). O(1).
     std::pair<int32_t, const V*> Top() const {
-      const ZNode* n = list_.Last();
-      return {n->key, &n->value};
+      const auto* e = list_.end() - 1;
+      return {e->key, &e->value};
     }
 
    private:
@@ -130,9 +119,9 @@ class SkiMap {
   bool Erase(const VoxelKey& key);
   // Removes every voxel.
   void Clear();
-  // Rebuilds each column with its nodes laid out in key order in one chunk: after many
-  // frames (or de-integrations) nodes of neighbouring voxels are scattered over the pool,
-  // and queries pay a cache miss per node. Content is unchanged. Costs about one copy of
+  // Rebuilds each column with its y nodes and z runs laid out in key order in one chunk,
+  // each run at its exact size: after many frames (or de-integrations) they are scattered
+  // over the pool, and queries pay a cache miss per row. Content is unchanged. Costs about one copy of
   // the map; readers wait only while a column pointer is swapped. A server runs it when a
   // map is idle or every N frames.
   void Compact();

@@ -33,7 +33,7 @@ struct SkiMap<V>::Column {
   using YList = SkipListCore<int32_t, ZList>;
   explicit Column(const SkipListOptions& options) : arena(options) {}
   ~Column() ABSL_NO_THREAD_SAFETY_ANALYSIS {
-    for (auto* n = ys.First(); n != nullptr; n = n->next[0]) n->value.Clear(arena);
+    for (auto* n = ys.First(); n != nullptr; n = n->next[0]) n->value.Clear(arena.pool());
     ys.Clear(arena);
   }
   mutable RwLock mu;
@@ -158,15 +158,20 @@ std::unique_ptr<typename SkiMap<V>::Column> SkiMap<V>::CopyColumn(
   // `fresh` is not shared yet: no lock needed on it.
   auto fresh = std::make_unique<Column>(options);
   ReaderLock lock(&old.mu);
-  fresh->arena.pool().Reserve(old.arena.pool().BytesInUse() + old.arena.pool().BytesInUse() / 8);
+  // One chunk for the y nodes and the z runs small enough to come from the pool.
+  size_t pooled = 0;
+  for (auto* yn = old.ys.First(); yn != nullptr; yn = yn->next[0]) {
+    const size_t row =
+        (ZList::Bytes(yn->value.size()) + NodePool::kAlign - 1) & ~(NodePool::kAlign - 1);
+    pooled += Column::YList::NodeBytes(1) + sizeof(void*) / 2 +
+              (row <= NodePool::kMaxPooledBytes ? row : 0);
+  }
+  fresh->arena.pool().Reserve(pooled);
   typename Column::YList::Finger yf;
   for (auto* yn = old.ys.First(); yn != nullptr; yn = yn->next[0]) {
-    bool inserted = false;
-    auto* y = fresh->ys.FindOrInsert(fresh->arena, yf, yn->key, &inserted);
-    typename ZList::Finger zf;
-    for (const ZNode* zn = yn->value.First(); zn != nullptr; zn = zn->next[0]) {
-      y->value.FindOrInsert(fresh->arena, zf, zn->key, &inserted)->value = zn->value;
-    }
+    auto* y = fresh->ys.Append(fresh->arena, yf, yn->key);
+    y->value.Reserve(fresh->arena.pool(), yn->value.size());  // exactly: no growth slack
+    for (const auto& e : yn->value) y->value.Append(fresh->arena.pool(), e.key, e.value);
   }
   fresh->heap_bytes = old.heap_bytes;
   fresh->version.store(old.version.load(std::memory_order_acquire), std::memory_order_release);
@@ -183,9 +188,9 @@ std::optional<V> SkiMap<V>::Find(const VoxelKey& key) const {
   ReaderLock lock(&column.mu);
   const auto* yn = column.ys.Find(key.y);
   if (yn == nullptr) return std::nullopt;
-  const ZNode* zn = yn->value.Find(key.z);
-  if (zn == nullptr) return std::nullopt;
-  return zn->value;
+  const auto* e = yn->value.Find(key.z);
+  if (e == nullptr) return std::nullopt;
+  return e->value;
 }
 
 template <Voxel V>
@@ -201,8 +206,8 @@ std::optional<KeyBox> SkiMap<V>::Bounds() const {
     b.min.y = std::min(b.min.y, column.ys.First()->key);
     b.max.y = std::max(b.max.y, column.ys.Last()->key);
     for (auto* yn = column.ys.First(); yn != nullptr; yn = yn->next[0]) {
-      b.min.z = std::min(b.min.z, yn->value.First()->key);
-      b.max.z = std::max(b.max.z, yn->value.Last()->key);
+      b.min.z = std::min(b.min.z, yn->value.begin()->key);
+      b.max.z = std::max(b.max.z, (yn->value.end() - 1)->key);
     }
   }
   return b;

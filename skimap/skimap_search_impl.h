@@ -46,9 +46,10 @@ void SkiMap<V>::WalkBox(const KeyBox& box, Fn&& fn) const {
     ReaderLock lock(&column.mu);
     for (auto* yn = column.ys.LowerBound(box.min.y); yn != nullptr && yn->key <= box.max.y;
          yn = yn->next[0]) {
-      for (const ZNode* zn = yn->value.LowerBound(box.min.z); zn != nullptr && zn->key <= box.max.z;
-           zn = zn->next[0]) {
-        fn(VoxelKey{xn->key, yn->key, zn->key}, zn->value);
+      const ZList& row = yn->value;
+      const auto [first, last] = row.Range(box.min.z, box.max.z);
+      for (auto* e = first; e != last; ++e) {
+        fn(VoxelKey{xn->key, yn->key, e->key}, e->value);
       }
     }
   }
@@ -93,10 +94,10 @@ template <Voxel V>
 template <class ColState, class RowState, class ColFn, class RowFn, class KeepFn, class Fn>
 void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&& row_range,
                               KeepFn&& keep, Fn&& fn) const {
-  // Columns are searched kGroup at a time, in three interleaved passes whose cache misses
+  // Columns are searched kGroup at a time, in two interleaved passes whose cache misses
   // overlap (a map's columns are far apart in memory): the y-list descents of the group
-  // (LowerBoundMany); the walks over each column's y range, a node of each column in turn;
-  // the z-list descents of every (x, y) row the group keeps. The rows are then scanned in
+  // (LowerBoundMany); the walks over each column's y range, a node of each column in turn,
+  // prefetching the z run of every (x, y) row the group keeps. The rows are then scanned in
   // (x, y, z) order.
   constexpr size_t kGroup = 32;
   using YList = typename Column::YList;
@@ -108,8 +109,8 @@ void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&&
     size_t rows_begin, rows_end;
   };
   struct Row {
-    typename ZList::Search search;  // first z >= z0
-    int32_t y, z1;
+    const ZList* list;
+    int32_t y, z0, z1;
     RowState state;
   };
   Col cols[kGroup];
@@ -146,7 +147,8 @@ void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&&
         int32_t z0;
         if (!row_range(std::as_const(col.state), yn->key, &row.state, &z0, &row.z1)) continue;
         yn->value.PrefetchHead();
-        row.search = {&yn->value, z0, nullptr};
+        row.list = &yn->value;
+        row.z0 = z0;
         row.y = yn->key;
         rows[col.rows_end++] = row;
       }
@@ -162,21 +164,14 @@ void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&&
       col.rows_begin = nrows;
       nrows = col.rows_end;
     }
-    auto row_search = [](Row& row) -> typename ZList::Search& { return row.search; };
-    ZList::LowerBoundMany(rows.data(), nrows, row_search);
-    constexpr size_t kAhead = 4;  // rows whose second node is prefetched ahead of the scan
-    for (size_t r = 0; r < std::min(kAhead, nrows); ++r) {
-      if (rows[r].search.result != nullptr) __builtin_prefetch(rows[r].search.result->next[0]);
-    }
+    // Each row's run was prefetched when its y node was read; rows are scanned in order.
     for (size_t i = 0; i < n; ++i) {
       for (size_t r = cols[i].rows_begin; r < cols[i].rows_end; ++r) {
-        if (r + kAhead < nrows && rows[r + kAhead].search.result != nullptr) {
-          __builtin_prefetch(rows[r + kAhead].search.result->next[0]);
-        }
         const Row& row = rows[r];
-        for (const ZNode* zn = row.search.result; zn != nullptr && zn->key <= row.z1;
-             zn = zn->next[0]) {
-          if (keep(row.state, zn->key)) fn(VoxelKey{cols[i].x, row.y, zn->key}, zn->value);
+        const ZList& list = *row.list;
+        const auto [first, last] = list.Range(row.z0, row.z1);
+        for (auto* e = first; e != last; ++e) {
+          if (keep(row.state, e->key)) fn(VoxelKey{cols[i].x, row.y, e->key}, e->value);
         }
       }
     }

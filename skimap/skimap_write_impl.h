@@ -118,12 +118,19 @@ WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBa
   // so no search is needed, and its nodes come from one chunk reserved up front.
   const bool new_column = integrate && c.ys.empty();
   if (new_column) {
-    size_t ys = 0;
-    for (auto* it = begin; it != end; ++it) ys += it == begin || it->key.y != it[-1].key.y;
-    // Nodes of height 1, plus the towers of the taller ones (1/3 pointer per node at p=1/4).
-    const size_t per_node = sizeof(void*) / 2;
-    c.arena.pool().Reserve(static_cast<size_t>(end - begin) * (ZList::NodeBytes(1) + per_node) +
-                           ys * (YList::NodeBytes(1) + per_node));
+    size_t ys = 0, pooled = 0;
+    for (auto* it = begin; it != end;) {
+      auto* run_end = it;
+      while (run_end != end && run_end->key.y == it->key.y) ++run_end;
+      const size_t row = ZList::Bytes(static_cast<uint32_t>(run_end - it));
+      if (row <= NodePool::kMaxPooledBytes)
+        pooled += (row + NodePool::kAlign - 1) & ~(NodePool::kAlign - 1);
+      ++ys;
+      it = run_end;
+    }
+    // y nodes of height 1, plus the towers of the taller ones (1/3 pointer per node at
+    // p=1/4), and the z runs that come from the pool.
+    c.arena.pool().Reserve(pooled + ys * (YList::NodeBytes(1) + sizeof(void*) / 2));
   }
   for (auto* it = begin; it != end;) {
     const int32_t y = it->key.y;
@@ -146,49 +153,31 @@ WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBa
         continue;
       }
     }
+    ZList& zl = yn->value;
     if (fresh) {
-      typename ZList::Finger append;
+      uint32_t n = 0;
+      for (auto* i = it; i != run_end; ++i) n += !i->data.IsEmpty();
+      if (n > 0) zl.Reserve(c.arena.pool(), n);
       for (; it != run_end; ++it) {
         ++s.voxels_touched;
         if (it->data.IsEmpty()) continue;
-        ZNode* zn = yn->value.Append(c.arena, append, it->key.z);
-        zn->value += it->data;
-        c.heap_bytes += zn->value.HeapBytes();
+        V v;
+        v += it->data;
+        c.heap_bytes += v.HeapBytes();
+        zl.Append(c.arena.pool(), it->key.z, std::move(v));
         ++s.voxels_created;
       }
       // Only FindOrInsert's entries can end empty (a new column's start with real data),
       // and yf is then a Seek finger, as Erase needs.
-      if (yn->value.empty()) c.ys.Erase(c.arena, yf, y);
+      if (zl.empty()) c.ys.Erase(c.arena, yf, y);
       continue;
     }
-    ZList& zl = yn->value;
-    typename ZList::Finger zf;
-    for (; it != run_end; ++it) {
-      const int32_t z = it->key.z;
-      ZNode* zn;
-      bool created = false;
-      if (integrate) {
-        zn = zl.FindOrInsert(c.arena, zf, z, &created);
-      } else {
-        zn = zl.Seek(zf, z);
-        if (zn == nullptr || zn->key != z) continue;
-      }
-      const size_t heap_before = zn->value.HeapBytes();
-      if (integrate) {
-        zn->value += it->data;
-      } else {
-        zn->value -= it->data;
-      }
-      ++s.voxels_touched;
-      s.voxels_created += created;
-      if (zn->value.IsEmpty()) {
-        c.heap_bytes -= heap_before;
-        zl.Erase(c.arena, zf, z);
-        ++s.voxels_removed;
-      } else {
-        c.heap_bytes += zn->value.HeapBytes() - heap_before;
-      }
+    if (integrate) {
+      zl.Integrate(c.arena.pool(), it, run_end, &s, &c.heap_bytes);
+    } else {
+      zl.Deintegrate(c.arena.pool(), it, run_end, &s, &c.heap_bytes);
     }
+    it = run_end;
     if (zl.empty()) c.ys.Erase(c.arena, yf, y);
   }
   return s;
