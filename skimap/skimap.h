@@ -121,9 +121,9 @@ class SkiMap {
   void Clear();
   // Rebuilds each column with its y nodes and z runs laid out in key order in one chunk,
   // each run at its exact size: after many frames (or de-integrations) they are scattered
-  // over the pool, and queries pay a cache miss per row. Content is unchanged. Costs about one copy of
-  // the map; readers wait only while a column pointer is swapped. A server runs it when a
-  // map is idle or every N frames.
+  // over the pool, and queries pay a cache miss per row. Content is unchanged. Costs about one copy
+  // of the map; readers wait only while a column pointer is swapped. A server runs it when a map is
+  // idle or every N frames.
   void Compact();
 
   // ---- Readers (thread safe, concurrent with the writer) ----
