@@ -238,6 +238,57 @@ class Report:
                 "workload), and their figures include the point array they index.", ""]
         return out
 
+    # The map core's speed against each peer's fastest path: the goal per row and a floor at
+    # two thirds of the ratio measured on 2026-12-04 (docs/measurements/2026-12-04-z-runs.md),
+    # so that a regression shows here as FAIL. (row, benchmark, peer, argument, goal, floor)
+    CORE_ROWS = [
+        ("insert structure only, room 1 cm (empty): OpenVDB / SkiMap", "InsertRoomMerged",
+         "OpenVdb", 10, 1.5, 1.14),
+        ("insert structure only, room 2 cm (empty): OpenVDB / SkiMap", "InsertRoomMerged",
+         "OpenVdb", 20, 1.5, 1.02),
+        ("insert structure only, room 5 cm (empty): OpenVDB / SkiMap", "InsertRoomMerged",
+         "OpenVdb", 50, 1.5, 1.15),
+        ("insert structure only, room 1 cm (steady): OpenVDB / SkiMap", "InsertRoomMergedSteady",
+         "OpenVdb", 10, 1.5, 0.86),
+        ("insert structure only, room 2 cm (steady): OpenVDB / SkiMap", "InsertRoomMergedSteady",
+         "OpenVdb", 20, 1.5, 0.81),
+        ("insert structure only, room 5 cm (steady): OpenVDB / SkiMap", "InsertRoomMergedSteady",
+         "OpenVdb", 50, 1.5, 0.79),
+        ("insert structure only, real 1 cm (steady): OpenVDB / SkiMap", "InsertYcbvMergedSteady",
+         "OpenVdb", 10, 1.5, 0.27),
+        ("insert structure only, real 2 cm (steady): OpenVDB / SkiMap", "InsertYcbvMergedSteady",
+         "OpenVdb", 20, 1.5, 0.39),
+        ("insert structure only, real 5 cm (steady): OpenVDB / SkiMap", "InsertYcbvMergedSteady",
+         "OpenVdb", 50, 1.5, 0.46),
+        ("radius 5 cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", 5,
+         1.0, 0.23),
+        ("radius 20 cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", 20,
+         1.0, 0.39),
+        ("radius 50 cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", 50,
+         1.0, 0.39),
+        ("box 0.5 m on the warehouse: OpenVDB / SkiMap", "BoxQuery", "OpenVdb", 50, 1.5,
+         0.79),
+        ("box 2 m on the warehouse: OpenVDB / SkiMap", "BoxQuery", "OpenVdb", 200, 1.5,
+         0.63),
+    ]
+
+    def core_table(self):
+        out = ["### The map core against each peer: goals and floors", "",
+               "Floor: two thirds of the ratio measured on 2026-12-04 (a regression fails it); "
+               "goal: where the map core is meant to be.", "",
+               "| row | measured | floor | result | goal |", "|---|---|---|---|---|"]
+        for text, op, peer, arg, goal, floor in self.CORE_ROWS:
+            a, b = self.get(op, peer, arg), self.get(op, "SkiMap", arg)
+            r = None if a is None or b is None else ratio(ns(a), ns(b))
+            if r is None:
+                out.append(f"| {text} | not measured | {floor:g}× | – | {goal:g}× |")
+                continue
+            out.append(f"| {text} | {r:.2f}× | {floor:g}× | "
+                       f"{'PASS' if r >= floor else '**FAIL**'} | {goal:g}× "
+                       f"({'met' if r >= goal else 'not yet'}) |")
+        out.append("")
+        return out
+
     def floor_table(self):
         out = ["### Floors of issue 2", "", "| floor | measured | result |", "|---|---|---|"]
         for text, measured, ok in self.floors:
@@ -298,7 +349,7 @@ def main():
     rep = Report(runs)
     body = context_lines(context or {}, runs)
     body += rep.insert_table() + rep.radius_table() + rep.query_table() + rep.memory_table()
-    body += rep.floor_table()
+    body += rep.floor_table() + rep.core_table()
     text = "\n".join(body)
     if len(sys.argv) >= 4 and sys.argv[2] == "--update":
         path = sys.argv[3]
