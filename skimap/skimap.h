@@ -164,7 +164,7 @@ class SkiMap {
   // Smallest key box holding every voxel; nullopt when empty.
   std::optional<KeyBox> Bounds() const;
   // Like Bounds() on x and y only (z spans the whole key range): what 2D rasters need,
-  // found without visiting the z lists.
+  // found without visiting the z runs.
   std::optional<KeyBox> FootprintBounds() const;
   // Heap and object bytes held by the map: pools (used and free), columns, the x level and
   // memory the voxels own (V::HeapBytes).

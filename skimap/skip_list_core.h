@@ -1,6 +1,6 @@
-// SkipListCore<K, V>: the compact skip list SkiMap nests three deep (x -> y -> z).
+// SkipListCore<K, V>: the compact skip list of SkiMap's x and y levels (its z level is ZRow).
 //
-// A core is 16 bytes (head, size, height) because a map holds one per (x, y) column. It
+// A core is 16 bytes (head, size, height) because a map holds one per x column. It
 // does not own an allocator: every mutating call takes the SkipListArena whose pool holds
 // the nodes and whose seeded RNG draws node heights, and the owner must call Clear(arena)
 // before the core is destroyed (SkipList<K, V> in skip_list.h is the self-contained wrapper
@@ -70,7 +70,7 @@ class SkipListArena {
   // probability, drawn from this arena's xorshift RNG (deterministic for a given seed and
   // operation sequence), and at most 1 + log_{1/p}(size + 1) ("fix the dice", Pugh 1990):
   // a level is worth having only once the list is long enough to skip along it. Short
-  // lists (most z columns) thus stay one level high, with their head inline.
+  // lists thus stay one level high, with their head inline.
   int RandomHeight(uint32_t size) {
     int h = 1;
     while (h < max_height_ && size >= min_size_[h] && NextRandom() < threshold_) ++h;
@@ -337,7 +337,7 @@ class SkipListCore {
   static constexpr size_t NodeBytes(int h) { return sizeof(Node) + (h - 1) * sizeof(Node*); }
 
  private:
-  // The head's forward pointers: inline while the list is one level high (most z lists),
+  // The head's forward pointers: inline while the list is one level high (most y lists),
   // an allocated tower beyond that.
   union Head {
     Node* first;
