@@ -241,36 +241,18 @@ class Report:
     # The map core's speed against each peer's fastest path: the goal per row and a floor at
     # two thirds of the ratio measured on 2026-12-04 (docs/measurements/2026-12-04-z-runs.md),
     # so that a regression shows here as FAIL. (row, benchmark, peer, argument, goal, floor)
-    CORE_ROWS = [
-        ("insert structure only, room 1 cm (empty): OpenVDB / SkiMap", "InsertRoomMerged",
-         "OpenVdb", 10, 1.5, 1.14),
-        ("insert structure only, room 2 cm (empty): OpenVDB / SkiMap", "InsertRoomMerged",
-         "OpenVdb", 20, 1.5, 1.02),
-        ("insert structure only, room 5 cm (empty): OpenVDB / SkiMap", "InsertRoomMerged",
-         "OpenVdb", 50, 1.5, 1.15),
-        ("insert structure only, room 1 cm (steady): OpenVDB / SkiMap", "InsertRoomMergedSteady",
-         "OpenVdb", 10, 1.5, 0.86),
-        ("insert structure only, room 2 cm (steady): OpenVDB / SkiMap", "InsertRoomMergedSteady",
-         "OpenVdb", 20, 1.5, 0.81),
-        ("insert structure only, room 5 cm (steady): OpenVDB / SkiMap", "InsertRoomMergedSteady",
-         "OpenVdb", 50, 1.5, 0.79),
-        ("insert structure only, real 1 cm (steady): OpenVDB / SkiMap", "InsertYcbvMergedSteady",
-         "OpenVdb", 10, 1.5, 0.27),
-        ("insert structure only, real 2 cm (steady): OpenVDB / SkiMap", "InsertYcbvMergedSteady",
-         "OpenVdb", 20, 1.5, 0.39),
-        ("insert structure only, real 5 cm (steady): OpenVDB / SkiMap", "InsertYcbvMergedSteady",
-         "OpenVdb", 50, 1.5, 0.46),
-        ("radius 5 cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", 5,
-         1.0, 0.23),
-        ("radius 20 cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", 20,
-         1.0, 0.39),
-        ("radius 50 cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", 50,
-         1.0, 0.39),
-        ("box 0.5 m on the warehouse: OpenVDB / SkiMap", "BoxQuery", "OpenVdb", 50, 1.5,
-         0.79),
-        ("box 2 m on the warehouse: OpenVDB / SkiMap", "BoxQuery", "OpenVdb", 200, 1.5,
-         0.63),
-    ]
+    CORE_ROWS = (
+        [(f"insert structure only, {wl_label} {res / 10:g} cm ({state}): OpenVDB / SkiMap",
+          f"Insert{wl}Merged{suffix}", "OpenVdb", res, 1.5, floor)
+         for wl, wl_label, suffix, state, floors in (
+             ("Room", "room", "", "empty", (1.14, 1.02, 1.15)),
+             ("Room", "room", "Steady", "steady", (0.86, 0.81, 0.79)),
+             ("Ycbv", "real", "Steady", "steady", (0.27, 0.39, 0.46)))
+         for res, floor in zip((10, 20, 50), floors)] +
+        [(f"radius {r} cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", r,
+          1.0, floor) for r, floor in ((5, 0.23), (20, 0.39), (50, 0.39))] +
+        [(f"box {label} on the warehouse: OpenVDB / SkiMap", "BoxQuery", "OpenVdb", arg, 1.5,
+          floor) for label, arg, floor in (("0.5 m", 50, 0.79), ("2 m", 200, 0.63))])
 
     def core_table(self):
         out = ["### The map core against each peer: goals and floors", "",

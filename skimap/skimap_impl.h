@@ -161,10 +161,8 @@ std::unique_ptr<typename SkiMap<V>::Column> SkiMap<V>::CopyColumn(
   // One chunk for the y nodes and the z runs small enough to come from the pool.
   size_t pooled = 0;
   for (auto* yn = old.ys.First(); yn != nullptr; yn = yn->next[0]) {
-    const size_t row =
-        (ZList::Bytes(yn->value.size()) + NodePool::kAlign - 1) & ~(NodePool::kAlign - 1);
-    pooled += Column::YList::NodeBytes(1) + sizeof(void*) / 2 +
-              (row <= NodePool::kMaxPooledBytes ? row : 0);
+    pooled +=
+        Column::YList::NodeBytes(1) + sizeof(void*) / 2 + ZList::PooledBytes(yn->value.size());
   }
   fresh->arena.pool().Reserve(pooled);
   typename Column::YList::Finger yf;

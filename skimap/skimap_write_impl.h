@@ -122,9 +122,7 @@ WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBa
     for (auto* it = begin; it != end;) {
       auto* run_end = it;
       while (run_end != end && run_end->key.y == it->key.y) ++run_end;
-      const size_t row = ZList::Bytes(static_cast<uint32_t>(run_end - it));
-      if (row <= NodePool::kMaxPooledBytes)
-        pooled += (row + NodePool::kAlign - 1) & ~(NodePool::kAlign - 1);
+      pooled += ZList::PooledBytes(static_cast<uint32_t>(run_end - it));
       ++ys;
       it = run_end;
     }

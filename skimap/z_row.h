@@ -166,6 +166,12 @@ class ZRow {
   }
 
   static constexpr size_t Bytes(uint32_t entries) { return size_t{entries} * sizeof(Entry); }
+  // What a block of `entries` takes from a NodePool's chunks: its rounded size, or 0 when
+  // it is too large for the pool and comes from the heap (for NodePool::Reserve).
+  static constexpr size_t PooledBytes(uint32_t entries) {
+    const size_t bytes = (Bytes(entries) + NodePool::kAlign - 1) & ~(NodePool::kAlign - 1);
+    return bytes <= NodePool::kMaxPooledBytes ? bytes : 0;
+  }
 
  private:
   // Binary search while the range is long, then a linear scan (rows are mostly short, and
