@@ -7,11 +7,13 @@
 //   map.RadiusSearch({1, 2, 0.5}, 0.2, [](const VoxelKey& k, const RGBWeightedVoxel& v) {});
 //   map.Deintegrate(batch);                     // voxel -= data; emptied voxels are freed
 //
-// Structure: the x level is a SkipList of columns; a column holds a y skip list whose
-// values are the z level of each (x, y) column: its voxels as one sorted run of (z, value)
-// entries (ZRow, z_row.h), all memory from the column's own NodePool. A voxel whose
-// IsEmpty() turns true is erased and its memory reused; an emptied z run, y entry or
-// column is removed too, so de-integrating everything returns the map to its empty size.
+// Structure: the x level is a SkipList of columns; a column holds its y level as one
+// sorted run of (y, row) entries (YRow, y_row.h), and each row is the z level of an (x, y)
+// column: its voxels as one sorted run of (z, value) entries (ZRow, z_row.h); all memory
+// of a column comes from its own NodePool. Every level is ordered by key, with O(log n)
+// access. A voxel whose IsEmpty() turns true is erased and its memory reused; an emptied
+// row or column is removed too, so de-integrating everything returns the map to its
+// empty size.
 // Keys and the world <-> key conversion are in grid.h (range ±2^20 per axis).
 //
 // Concurrency model (tested under TSan in tests/skimap/skimap_concurrency_test.cc):
@@ -44,6 +46,7 @@
 #include "skimap/skip_list.h"
 #include "skimap/voxel.h"
 #include "skimap/voxel_batch.h"
+#include "skimap/y_row.h"
 #include "skimap/z_row.h"
 
 namespace skimap {
@@ -59,6 +62,7 @@ class SkiMap {
     ThreadPool* pool = nullptr;  // threads for batch writes (not owned); nullptr = caller
   };
   using ZList = ZRow<V>;  // the z level of one (x, y) column (z_row.h)
+  using YList = YRow<V>;  // the y level of one x column (y_row.h)
 
   // A read-only view of one (x, y) column of voxels, ordered by z.
   class ZColumn {
@@ -179,9 +183,6 @@ class SkiMap {
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(writer_mu_);
   static void StampYBlocks(Column& column, const typename VoxelBatch<V>::Item* begin,
                            const typename VoxelBatch<V>::Item* end, uint64_t version);
-  static WriteStats ApplyToColumn(Column& column, int32_t x,
-                                  const typename VoxelBatch<V>::Item* begin,
-                                  const typename VoxelBatch<V>::Item* end, bool integrate);
   // The search behind ForEachInBox and RadiusSearch. For each column x in [x0, x1] with
   // col_range(x, ColState*, int32_t* y0, int32_t* y1) true, each y entry in [y0, y1] with
   // row_range(const ColState&, y, RowState*, int32_t* z0, int32_t* z1) true, and each voxel
@@ -193,8 +194,7 @@ class SkiMap {
   // fn(key, value) for every voxel in `box` (not empty), column by column, node by node.
   template <class Fn>
   void WalkBox(const KeyBox& box, Fn&& fn) const;
-  SkipListOptions ColumnOptions(int32_t x) const;
-  static std::unique_ptr<Column> CopyColumn(const Column& old, const SkipListOptions& options);
+  static std::unique_ptr<Column> CopyColumn(const Column& old);
 
   const Options options_;
   const Grid grid_;

@@ -9,15 +9,6 @@
 namespace skimap {
 
 namespace internal {
-// Seed of the RNG of column x: distinct per column, reproducible for a given map seed.
-inline uint32_t MixSeed(uint32_t seed, int32_t x, int32_t y) {
-  uint64_t h = (uint64_t{static_cast<uint32_t>(x)} << 32) ^ static_cast<uint32_t>(y) ^ seed;
-  h ^= h >> 33;
-  h *= 0xff51afd7ed558ccdull;
-  h ^= h >> 33;
-  const uint32_t r = static_cast<uint32_t>(h);
-  return r == 0 ? 1 : r;
-}
 // A write number no column of any map has had: versions stay unique across maps, and
 // across a column removed and created again.
 inline uint64_t NextColumnVersion() {
@@ -30,18 +21,14 @@ inline constexpr size_t kParallelMinItems = 4096;
 
 template <Voxel V>
 struct SkiMap<V>::Column {
-  using YList = SkipListCore<int32_t, ZList>;
-  explicit Column(const SkipListOptions& options) : arena(options) {}
-  ~Column() ABSL_NO_THREAD_SAFETY_ANALYSIS {
-    for (auto* n = ys.First(); n != nullptr; n = n->next[0]) n->value.Clear(arena.pool());
-    ys.Clear(arena);
-  }
+  Column() = default;
+  ~Column() ABSL_NO_THREAD_SAFETY_ANALYSIS { ys.Clear(pool); }
   mutable RwLock mu;
   // The process-wide write number of the last write to this column, and of the last write
   // to each of its y blocks (y >> kYBlockShift; sorted by block): ForEachColumnVersion.
   std::atomic<uint64_t> version{0};
   std::vector<std::pair<int32_t, uint64_t>> y_blocks ABSL_GUARDED_BY(mu);
-  SkipListArena arena ABSL_GUARDED_BY(mu);
+  NodePool pool ABSL_GUARDED_BY(mu);  // the y run and every z run of the column
   YList ys ABSL_GUARDED_BY(mu);
   size_t heap_bytes ABSL_GUARDED_BY(mu) = 0;  // sum of V::HeapBytes in this column
 };
@@ -139,37 +126,28 @@ void SkiMap<V>::Compact() {
     }
   }
   for (auto [x, old] : columns) {
-    std::unique_ptr<Column> fresh = CopyColumn(*old, ColumnOptions(x));
+    std::unique_ptr<Column> fresh = CopyColumn(*old);
     WriterLock x_lock(&x_mu_);  // no reader is inside any column while we hold this
     std::swap(*xs_.Find(x), fresh);
   }  // `fresh` now holds the old column: destroyed here, outside the lock
 }
 
 template <Voxel V>
-SkipListOptions SkiMap<V>::ColumnOptions(int32_t x) const {
-  SkipListOptions lists = options_.lists;
-  lists.seed = internal::MixSeed(lists.seed, x, INT32_MIN);
-  return lists;
-}
-
-template <Voxel V>
-std::unique_ptr<typename SkiMap<V>::Column> SkiMap<V>::CopyColumn(
-    const Column& old, const SkipListOptions& options) ABSL_NO_THREAD_SAFETY_ANALYSIS {
+std::unique_ptr<typename SkiMap<V>::Column> SkiMap<V>::CopyColumn(const Column& old)
+    ABSL_NO_THREAD_SAFETY_ANALYSIS {
   // `fresh` is not shared yet: no lock needed on it.
-  auto fresh = std::make_unique<Column>(options);
+  auto fresh = std::make_unique<Column>();
   ReaderLock lock(&old.mu);
-  // One chunk for the y nodes and the z runs small enough to come from the pool.
-  size_t pooled = 0;
-  for (auto* yn = old.ys.First(); yn != nullptr; yn = yn->next[0]) {
-    pooled +=
-        Column::YList::NodeBytes(1) + sizeof(void*) / 2 + ZList::PooledBytes(yn->value.size());
-  }
-  fresh->arena.pool().Reserve(pooled);
-  typename Column::YList::Finger yf;
-  for (auto* yn = old.ys.First(); yn != nullptr; yn = yn->next[0]) {
-    auto* y = fresh->ys.Append(fresh->arena, yf, yn->key);
-    y->value.Reserve(fresh->arena.pool(), yn->value.size());  // exactly: no growth slack
-    for (const auto& e : yn->value) y->value.Append(fresh->arena.pool(), e.key, e.value);
+  // One chunk for the y run and the z runs small enough to come from the pool.
+  size_t pooled = YList::PooledBytes(old.ys.size());
+  for (const auto& row : old.ys) pooled += ZList::PooledBytes(row.value.size());
+  fresh->pool.Reserve(pooled);
+  fresh->ys.Reserve(fresh->pool, old.ys.size());  // exactly: no growth slack
+  for (const auto& row : old.ys) {
+    ZList z;
+    z.Reserve(fresh->pool, row.value.size());
+    for (const auto& e : row.value) z.Append(fresh->pool, e.key, e.value);
+    fresh->ys.Append(fresh->pool, row.key, std::move(z));
   }
   fresh->heap_bytes = old.heap_bytes;
   fresh->version.store(old.version.load(std::memory_order_acquire), std::memory_order_release);
@@ -184,9 +162,9 @@ std::optional<V> SkiMap<V>::Find(const VoxelKey& key) const {
   if (c == nullptr) return std::nullopt;
   const Column& column = **c;
   ReaderLock lock(&column.mu);
-  const auto* yn = column.ys.Find(key.y);
-  if (yn == nullptr) return std::nullopt;
-  const auto* e = yn->value.Find(key.z);
+  const auto* row = column.ys.Find(key.y);
+  if (row == nullptr) return std::nullopt;
+  const auto* e = row->value.Find(key.z);
   if (e == nullptr) return std::nullopt;
   return e->value;
 }
@@ -201,11 +179,11 @@ std::optional<KeyBox> SkiMap<V>::Bounds() const {
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
-    b.min.y = std::min(b.min.y, column.ys.First()->key);
-    b.max.y = std::max(b.max.y, column.ys.Last()->key);
-    for (auto* yn = column.ys.First(); yn != nullptr; yn = yn->next[0]) {
-      b.min.z = std::min(b.min.z, yn->value.begin()->key);
-      b.max.z = std::max(b.max.z, (yn->value.end() - 1)->key);
+    b.min.y = std::min(b.min.y, column.ys.begin()->key);
+    b.max.y = std::max(b.max.y, (column.ys.end() - 1)->key);
+    for (const auto& row : column.ys) {
+      b.min.z = std::min(b.min.z, row.value.begin()->key);
+      b.max.z = std::max(b.max.z, (row.value.end() - 1)->key);
     }
   }
   return b;
@@ -223,8 +201,8 @@ std::optional<KeyBox> SkiMap<V>::FootprintBounds() const {
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
-    b.min.y = std::min(b.min.y, column.ys.First()->key);
-    b.max.y = std::max(b.max.y, column.ys.Last()->key);
+    b.min.y = std::min(b.min.y, column.ys.begin()->key);
+    b.max.y = std::max(b.max.y, (column.ys.end() - 1)->key);
   }
   return b;
 }
@@ -236,7 +214,7 @@ size_t SkiMap<V>::MemoryUsage() const {
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
-    bytes += sizeof(Column) + column.arena.pool().BytesReserved() + column.heap_bytes;
+    bytes += sizeof(Column) + column.pool.BytesReserved() + column.heap_bytes;
   }
   return bytes;
 }

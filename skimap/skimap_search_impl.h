@@ -44,12 +44,11 @@ void SkiMap<V>::WalkBox(const KeyBox& box, Fn&& fn) const {
        xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
-    for (auto* yn = column.ys.LowerBound(box.min.y); yn != nullptr && yn->key <= box.max.y;
-         yn = yn->next[0]) {
-      const ZList& row = yn->value;
-      const auto [first, last] = row.Range(box.min.z, box.max.z);
+    const auto [rows_first, rows_last] = column.ys.Range(box.min.y, box.max.y);
+    for (auto* row = rows_first; row != rows_last; ++row) {
+      const auto [first, last] = row->value.Range(box.min.z, box.max.z);
       for (auto* e = first; e != last; ++e) {
-        fn(VoxelKey{xn->key, yn->key, e->key}, e->value);
+        fn(VoxelKey{xn->key, row->key, e->key}, e->value);
       }
     }
   }
@@ -94,85 +93,60 @@ template <Voxel V>
 template <class ColState, class RowState, class ColFn, class RowFn, class KeepFn, class Fn>
 void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&& row_range,
                               KeepFn&& keep, Fn&& fn) const {
-  // Columns are searched kGroup at a time, in two interleaved passes whose cache misses
-  // overlap (a map's columns are far apart in memory): the y-list descents of the group
-  // (LowerBoundMany); the walks over each column's y range, a node of each column in turn,
-  // prefetching the z run of every (x, y) row the group keeps. The rows are then scanned in
-  // (x, y, z) order.
+  // Columns are searched kGroup at a time, so that their cache misses overlap (a map's
+  // columns are far apart in memory): the binary searches for each column's first row
+  // y >= y0 advance in lockstep; then each column's rows in [y0, y1] are listed, with a
+  // prefetch of the z run of every row kept; then the rows are scanned in (x, y, z) order.
   constexpr size_t kGroup = 32;
-  using YList = typename Column::YList;
-  using YNode = typename YList::Node;
+  using YEntry = typename YList::Entry;
   struct Col {
-    typename YList::Search search;  // first y >= y0
-    int32_t x, y1;
+    const YList* ys;
+    int32_t x, y0, y1;
     ColState state;
-    size_t rows_begin, rows_end;
   };
   struct Row {
     const ZList* list;
-    int32_t y, z0, z1;
+    int32_t x, y, z0, z1;
     RowState state;
   };
   Col cols[kGroup];
   std::vector<Row> rows;
   auto run_group = [&](size_t n) {
-    auto col_search = [](Col& col) -> typename YList::Search& { return col.search; };
-    YList::LowerBoundMany(cols, n, col_search);
-    // Each column's rows land in its own slice of `rows`, in y order.
-    size_t capacity = 0;
-    const YNode* at[kGroup];
-    size_t walking[kGroup];
-    size_t width = 0;
+    const YEntry* at[kGroup];
+    size_t len[kGroup];
+    size_t longest = 0;
     for (size_t i = 0; i < n; ++i) {
-      Col& col = cols[i];
-      col.rows_begin = col.rows_end = capacity;
-      const int64_t span = int64_t{col.y1} - col.search.key + 1;
-      capacity += std::min<size_t>(static_cast<size_t>(span), col.search.list->size());
-      at[i] = col.search.result;
-      walking[width++] = i;
+      at[i] = cols[i].ys->begin();
+      len[i] = cols[i].ys->size();
+      longest = std::max(longest, len[i]);
     }
-    if (rows.size() < capacity) rows.resize(capacity);
-    while (width > 0) {
-      for (size_t j = 0; j < width;) {
-        Col& col = cols[walking[j]];
-        const YNode* yn = at[walking[j]];
-        if (yn == nullptr || yn->key > col.y1) {
-          walking[j] = walking[--width];
-          continue;
-        }
-        at[walking[j]] = yn->next[0];
-        __builtin_prefetch(yn->next[0]);
-        ++j;
-        Row row;
-        int32_t z0;
-        if (!row_range(std::as_const(col.state), yn->key, &row.state, &z0, &row.z1)) continue;
-        yn->value.PrefetchHead();
-        row.list = &yn->value;
-        row.z0 = z0;
-        row.y = yn->key;
-        rows[col.rows_end++] = row;
+    // Branch-free lower bounds: each step halves every column's range still longer than 1.
+    for (; longest > 1; longest -= longest / 2) {
+      for (size_t i = 0; i < n; ++i) {
+        if (len[i] <= 1) continue;
+        const size_t half = len[i] / 2;
+        at[i] = at[i][half].key < cols[i].y0 ? at[i] + half : at[i];
+        len[i] -= half;
       }
     }
-    // Close the gaps between the slices, then scan every row of the group.
-    size_t nrows = 0;
+    rows.clear();
     for (size_t i = 0; i < n; ++i) {
-      Col& col = cols[i];
-      if (col.rows_begin != nrows) {
-        std::copy(rows.begin() + col.rows_begin, rows.begin() + col.rows_end, rows.begin() + nrows);
+      const Col& col = cols[i];
+      const YEntry* row = at[i] + (len[i] == 1 && at[i]->key < col.y0);
+      for (const YEntry* end = col.ys->end(); row != end && row->key <= col.y1; ++row) {
+        Row r;
+        if (!row_range(std::as_const(col.state), row->key, &r.state, &r.z0, &r.z1)) continue;
+        row->value.PrefetchHead();
+        r.list = &row->value;
+        r.x = col.x;
+        r.y = row->key;
+        rows.push_back(r);
       }
-      col.rows_end = nrows + (col.rows_end - col.rows_begin);
-      col.rows_begin = nrows;
-      nrows = col.rows_end;
     }
-    // Each row's run was prefetched when its y node was read; rows are scanned in order.
-    for (size_t i = 0; i < n; ++i) {
-      for (size_t r = cols[i].rows_begin; r < cols[i].rows_end; ++r) {
-        const Row& row = rows[r];
-        const ZList& list = *row.list;
-        const auto [first, last] = list.Range(row.z0, row.z1);
-        for (auto* e = first; e != last; ++e) {
-          if (keep(row.state, e->key)) fn(VoxelKey{cols[i].x, row.y, e->key}, e->value);
-        }
+    for (const Row& row : rows) {
+      const auto [first, last] = row.list->Range(row.z0, row.z1);
+      for (auto* e = first; e != last; ++e) {
+        if (keep(row.state, e->key)) fn(VoxelKey{row.x, row.y, e->key}, e->value);
       }
     }
   };
@@ -200,13 +174,12 @@ void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&&
   };
   for (auto* xn = xs_.LowerBound(x0); xn != nullptr && xn->key <= x1; xn = xn->next[0]) {
     Col& col = cols[n];
-    int32_t y0;
-    if (!col_range(xn->key, &col.state, &y0, &col.y1)) continue;
+    if (!col_range(xn->key, &col.state, &col.y0, &col.y1)) continue;
     const Column& column = *xn->value;
     // Shared locks of a group are taken in ascending x; writers never hold a column lock
     // while waiting for another, so holding several cannot deadlock.
     locks.Add(&column);
-    col.search = {&column.ys, y0, nullptr};
+    col.ys = &column.ys;
     col.x = xn->key;
     if (++n == kGroup) flush();
   }
@@ -233,10 +206,8 @@ void SkiMap<V>::ForEachColumn(int32_t min_x, int32_t max_x, int32_t min_y, int32
   for (auto* xn = xs_.LowerBound(min_x); xn != nullptr && xn->key <= max_x; xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
-    for (auto* yn = column.ys.LowerBound(min_y); yn != nullptr && yn->key <= max_y;
-         yn = yn->next[0]) {
-      fn(xn->key, yn->key, ZColumn(yn->value));
-    }
+    const auto [first, last] = column.ys.Range(min_y, max_y);
+    for (auto* row = first; row != last; ++row) fn(xn->key, row->key, ZColumn(row->value));
   }
 }
 

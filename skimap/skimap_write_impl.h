@@ -1,6 +1,6 @@
 // Template definitions for skimap.h: the write path of a batch (Apply: the batch split by
-// x column, over the pool's threads; each column's y and z levels updated in one walk of
-// its sorted keys). Include skimap.h, not this file.
+// x column, over the pool's threads; each column's y and z runs updated in one pass over
+// its sorted keys, YRow::Integrate). Include skimap.h, not this file.
 #ifndef SKIMAP_SKIMAP_WRITE_IMPL_H_
 #define SKIMAP_SKIMAP_WRITE_IMPL_H_
 
@@ -32,7 +32,7 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
     WriterLock lock(&x_mu_);
     for (Run& r : runs) {
       if (r.column != nullptr) continue;
-      auto column = std::make_unique<Column>(ColumnOptions(r.x));
+      auto column = std::make_unique<Column>();
       r.column = column.get();
       xs_.Insert(r.x, std::move(column));
     }
@@ -44,7 +44,12 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
       Run& r = runs[i];
       if (r.column == nullptr) continue;
       WriterLock lock(&r.column->mu);
-      r.stats = ApplyToColumn(*r.column, r.x, items + r.begin, items + r.end, integrate);
+      Column& c = *r.column;
+      if (integrate) {
+        c.ys.Integrate(c.pool, items + r.begin, items + r.end, &r.stats, &c.heap_bytes);
+      } else {
+        c.ys.Deintegrate(c.pool, items + r.begin, items + r.end, &r.stats, &c.heap_bytes);
+      }
       r.column->version.store(version, std::memory_order_release);
       StampYBlocks(*r.column, items + r.begin, items + r.end, version);
     }
@@ -105,80 +110,6 @@ void SkiMap<V>::StampYBlocks(Column& c, const typename VoxelBatch<V>::Item* begi
       blocks.insert(pos, {block, version});
     }
   }
-}
-
-template <Voxel V>
-WriteStats SkiMap<V>::ApplyToColumn(Column& c, int32_t x, const typename VoxelBatch<V>::Item* begin,
-                                    const typename VoxelBatch<V>::Item* end, bool integrate)
-    ABSL_NO_THREAD_SAFETY_ANALYSIS {  // caller holds c.mu
-  using YList = typename Column::YList;
-  WriteStats s;
-  typename YList::Finger yf;
-  // A new column (every column of a first frame) is built by appending: the batch is sorted,
-  // so no search is needed, and its nodes come from one chunk reserved up front.
-  const bool new_column = integrate && c.ys.empty();
-  if (new_column) {
-    size_t ys = 0, pooled = 0;
-    for (auto* it = begin; it != end;) {
-      auto* run_end = it;
-      while (run_end != end && run_end->key.y == it->key.y) ++run_end;
-      pooled += ZList::PooledBytes(static_cast<uint32_t>(run_end - it));
-      ++ys;
-      it = run_end;
-    }
-    // y nodes of height 1, plus the towers of the taller ones (1/3 pointer per node at
-    // p=1/4), and the z runs that come from the pool.
-    c.arena.pool().Reserve(pooled + ys * (YList::NodeBytes(1) + sizeof(void*) / 2));
-  }
-  for (auto* it = begin; it != end;) {
-    const int32_t y = it->key.y;
-    auto* run_end = it;
-    while (run_end != end && run_end->key.y == y) ++run_end;
-    typename YList::Node* yn;
-    bool fresh = false;  // yn is a new entry: its voxels are appended without search
-    if (new_column) {
-      // Empty data makes no voxel (V() += empty stays empty), so no entry for a run of it.
-      for (; it != run_end && it->data.IsEmpty(); ++it) ++s.voxels_touched;
-      if (it == run_end) continue;
-      yn = c.ys.Append(c.arena, yf, y);
-      fresh = true;
-    } else if (integrate) {
-      yn = c.ys.FindOrInsert(c.arena, yf, y, &fresh);
-    } else {
-      yn = c.ys.Seek(yf, y);
-      if (yn == nullptr || yn->key != y) {
-        it = run_end;
-        continue;
-      }
-    }
-    ZList& zl = yn->value;
-    if (fresh) {
-      uint32_t n = 0;
-      for (auto* i = it; i != run_end; ++i) n += !i->data.IsEmpty();
-      if (n > 0) zl.Reserve(c.arena.pool(), n);
-      for (; it != run_end; ++it) {
-        ++s.voxels_touched;
-        if (it->data.IsEmpty()) continue;
-        V v;
-        v += it->data;
-        c.heap_bytes += v.HeapBytes();
-        zl.Append(c.arena.pool(), it->key.z, std::move(v));
-        ++s.voxels_created;
-      }
-      // Only FindOrInsert's entries can end empty (a new column's start with real data),
-      // and yf is then a Seek finger, as Erase needs.
-      if (zl.empty()) c.ys.Erase(c.arena, yf, y);
-      continue;
-    }
-    if (integrate) {
-      zl.Integrate(c.arena.pool(), it, run_end, &s, &c.heap_bytes);
-    } else {
-      zl.Deintegrate(c.arena.pool(), it, run_end, &s, &c.heap_bytes);
-    }
-    it = run_end;
-    if (zl.empty()) c.ys.Erase(c.arena, yf, y);
-  }
-  return s;
 }
 
 }  // namespace skimap

@@ -14,9 +14,8 @@
 // from neighbouring memory. Access stays O(log n) by binary search, and the level stays
 // ordered by key.
 //
-// Memory: the entries plus up to half as many unused ones after growth (growth by 1.5x
-// keeps the inserts of a growing column amortized O(1)); a row emptied by Deintegrate
-// returns its block to the pool. The row itself is 16 bytes (it is a y node's value).
+// Storage, search and memory are KeyedRun's (keyed_run.h); a row emptied by Deintegrate
+// returns its block to the pool. The row itself is 16 bytes (it is a y entry's value).
 //
 // Thread safety: not thread safe; SkiMap serializes writers with readers per x column.
 // The owner must call Clear(pool) before destroying a non-empty row.
@@ -30,6 +29,7 @@
 #include <new>
 #include <utility>
 
+#include "skimap/keyed_run.h"
 #include "skimap/node_pool.h"
 
 namespace skimap {
@@ -47,51 +47,14 @@ struct WriteStats {
 };
 
 template <class V>
-class ZRow {
+class ZRow : public KeyedRun<V> {
+  using Base = KeyedRun<V>;
+  using Base::capacity_;
+  using Base::data_;
+  using Base::size_;
+
  public:
-  struct Entry {
-    int32_t key;
-    V value;
-  };
-
-  ZRow() = default;
-  ZRow(ZRow&& other) noexcept { *this = std::move(other); }
-  ZRow& operator=(ZRow&& other) noexcept {
-    std::swap(data_, other.data_);
-    std::swap(size_, other.size_);
-    std::swap(capacity_, other.capacity_);
-    return *this;
-  }
-  ZRow(const ZRow&) = delete;
-  ZRow& operator=(const ZRow&) = delete;
-  // REQUIRES: Clear(pool) was called (or the row never held memory).
-  ~ZRow() { assert(capacity_ == 0); }
-
-  uint32_t size() const { return size_; }
-  bool empty() const { return size_ == 0; }
-  const Entry* begin() const { return data_; }
-  const Entry* end() const { return data_ + size_; }
-  // Starts loading the first entries into the cache.
-  void PrefetchHead() const { __builtin_prefetch(data_); }
-
-  // First entry with key >= z, or end().
-  const Entry* LowerBound(int32_t z) const { return LowerBoundIn(data_, data_ + size_, z); }
-  // The entries with lo <= key <= hi, as [first, last). One bound per end: a loop over
-  // the range then has a single exit (compilers keep a caller's accumulator in a register
-  // over such loops, not over a loop that also tests each key).
-  std::pair<const Entry*, const Entry*> Range(int32_t lo, int32_t hi) const {
-    const Entry* first = LowerBound(lo);
-    const Entry* last = end();
-    if (first != last && (last - 1)->key > hi) {
-      last = hi == INT32_MAX ? last : LowerBoundIn(first, last, hi + 1);
-    }
-    return {first, last};
-  }
-  // The entry with key z, or nullptr.
-  const Entry* Find(int32_t z) const {
-    const Entry* e = LowerBound(z);
-    return e != end() && e->key == z ? e : nullptr;
-  }
+  using typename Base::Entry;
 
   // value += item.data for the items [begin, end) (Item: .key.z and .data; ascending,
   // distinct z). A missing voxel is created unless its data is empty; a voxel left empty
@@ -105,7 +68,7 @@ class ZRow {
     bool emptied = false;
     for (const Item* it = begin; it != end; ++it) {
       ++stats->voxels_touched;
-      at = LowerBoundIn(at, last, it->key.z);
+      at = Base::LowerBoundIn(at, last, it->key.z);
       if (at != last && at->key == it->key.z) {
         const size_t before = at->value.HeapBytes();
         at->value += it->data;
@@ -133,7 +96,7 @@ class ZRow {
     Entry* const last = data_ + size_;
     bool emptied = false;
     for (const Item* it = begin; it != end && at != last; ++it) {
-      at = LowerBoundIn(at, last, it->key.z);
+      at = Base::LowerBoundIn(at, last, it->key.z);
       if (at == last || at->key != it->key.z) continue;
       ++stats->voxels_touched;
       const size_t before = at->value.HeapBytes();
@@ -145,83 +108,20 @@ class ZRow {
     if (emptied) RemoveEmpty(pool, stats, heap_bytes);
   }
 
-  // Room for n entries in all (no effect when there is already).
-  void Reserve(NodePool& pool, uint32_t n) {
-    if (n > capacity_) Reallocate(pool, n);
-  }
-  // Appends (z, value). REQUIRES: z greater than every key of the row.
-  void Append(NodePool& pool, int32_t z, V value) {
-    assert(size_ == 0 || data_[size_ - 1].key < z);
-    if (size_ == capacity_) Reallocate(pool, Grown(size_ + 1));
-    new (&data_[size_]) Entry{z, std::move(value)};
-    ++size_;
-  }
-
-  // Destroys every entry and returns the block to the pool.
-  void Clear(NodePool& pool) {
-    for (uint32_t i = 0; i < size_; ++i) data_[i].~Entry();
-    if (capacity_ > 0) pool.Free(data_, Bytes(capacity_));
-    data_ = nullptr;
-    size_ = capacity_ = 0;
-  }
-
-  static constexpr size_t Bytes(uint32_t entries) { return size_t{entries} * sizeof(Entry); }
-  // What a block of `entries` takes from a NodePool's chunks: its rounded size, or 0 when
-  // it is too large for the pool and comes from the heap (for NodePool::Reserve).
-  static constexpr size_t PooledBytes(uint32_t entries) {
-    const size_t bytes = (Bytes(entries) + NodePool::kAlign - 1) & ~(NodePool::kAlign - 1);
-    return bytes <= NodePool::kMaxPooledBytes ? bytes : 0;
-  }
-
  private:
-  // Binary search while the range is long, then a linear scan (rows are mostly short, and
-  // a batch's items advance through a row in order).
-  static Entry* LowerBoundIn(Entry* first, Entry* last, int32_t z) {
-    size_t n = static_cast<size_t>(last - first);
-    while (n > 8) {
-      const size_t half = n / 2;
-      if (first[half].key < z) {
-        first += half + 1;
-        n -= half + 1;
-      } else {
-        n = half;
-      }
-    }
-    while (first != last && first->key < z) ++first;
-    return first;
-  }
-  static const Entry* LowerBoundIn(const Entry* first, const Entry* last, int32_t z) {
-    return LowerBoundIn(const_cast<Entry*>(first), const_cast<Entry*>(last), z);
-  }
-
-  uint32_t Grown(uint32_t needed) const { return std::max(needed, capacity_ + capacity_ / 2); }
-
-  void Reallocate(NodePool& pool, uint32_t capacity) {
-    assert(capacity >= size_);
-    Entry* fresh = static_cast<Entry*>(pool.Allocate(Bytes(capacity)));
-    for (uint32_t i = 0; i < size_; ++i) {
-      new (&fresh[i]) Entry(std::move(data_[i]));
-      data_[i].~Entry();
-    }
-    if (capacity_ > 0) pool.Free(data_, Bytes(capacity_));
-    data_ = fresh;
-    capacity_ = capacity;
-  }
-
   // Inserts the `missing` items of [begin, end) that have no entry and non-empty data,
   // merging from the back so that each old entry moves once.
   template <class Item>
   void InsertMissing(NodePool& pool, const Item* begin, const Item* end, uint32_t missing,
                      WriteStats* stats, size_t* heap_bytes) {
     const uint32_t total = size_ + missing;
-    if (total > capacity_) Reallocate(pool, Grown(total));
+    if (total > capacity_) this->Reallocate(pool, this->Grown(total));
     int64_t old = static_cast<int64_t>(size_) - 1;  // last old entry not yet placed
     int64_t w = static_cast<int64_t>(total) - 1;    // next slot to fill
     for (const Item* it = end; it != begin && w > old;) {
       const Item& item = *(it - 1);
       if (old >= 0 && data_[old].key > item.key.z) {
-        new (&data_[w]) Entry(std::move(data_[old]));
-        data_[old].~Entry();
+        this->Relocate(static_cast<uint32_t>(old), static_cast<uint32_t>(w));
         --old;
         --w;
         continue;
@@ -247,19 +147,12 @@ class ZRow {
         ++stats->voxels_removed;
         continue;
       }
-      if (w != r) {
-        new (&data_[w]) Entry(std::move(data_[r]));
-        data_[r].~Entry();
-      }
+      if (w != r) this->Relocate(r, w);
       ++w;
     }
     size_ = w;
-    if (size_ == 0) Clear(pool);
+    if (size_ == 0) this->Clear(pool);
   }
-
-  Entry* data_ = nullptr;
-  uint32_t size_ = 0;
-  uint32_t capacity_ = 0;
 };
 
 }  // namespace skimap
