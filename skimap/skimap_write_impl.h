@@ -43,15 +43,15 @@ WriteStats SkiMap<V>::Apply(const typename VoxelBatch<V>::Item* items, size_t n,
     for (size_t i = first; i < last; ++i) {
       Run& r = runs[i];
       if (r.column == nullptr) continue;
-      WriterLock lock(&r.column->mu);
       Column& c = *r.column;
+      WriterLock lock(&c.mu);
       if (integrate) {
         c.ys.Integrate(c.pool, items + r.begin, items + r.end, &r.stats, &c.heap_bytes);
       } else {
         c.ys.Deintegrate(c.pool, items + r.begin, items + r.end, &r.stats, &c.heap_bytes);
       }
-      r.column->version.store(version, std::memory_order_release);
-      StampYBlocks(*r.column, items + r.begin, items + r.end, version);
+      c.version.store(version, std::memory_order_release);
+      StampYBlocks(c, items + r.begin, items + r.end, version);
     }
   };
   ThreadPool* pool = options_.pool;
