@@ -245,14 +245,14 @@ class Report:
         [(f"insert structure only, {wl_label} {res / 10:g} cm ({state}): OpenVDB / SkiMap",
           f"Insert{wl}Merged{suffix}", "OpenVdb", res, 1.5, floor)
          for wl, wl_label, suffix, state, floors in (
-             ("Room", "room", "", "empty", (1.14, 1.02, 1.15)),
-             ("Room", "room", "Steady", "steady", (0.86, 0.81, 0.79)),
-             ("Ycbv", "real", "Steady", "steady", (0.27, 0.39, 0.46)))
+             ("Room", "room", "", "empty", (1.38, 1.06, 1.27)),
+             ("Room", "room", "Steady", "steady", (1.82, 1.2, 1.07)),
+             ("Ycbv", "real", "Steady", "steady", (0.41, 0.52, 0.57)))
          for res, floor in zip((10, 20, 50), floors)] +
         [(f"radius {r} cm, 1 M uniform: nanoflann / SkiMap", "RadiusUniform", "Nanoflann", r,
-          1.0, floor) for r, floor in ((5, 0.23), (20, 0.39), (50, 0.39))] +
+          1.0, floor) for r, floor in ((5, 0.36), (20, 0.48), (50, 0.6))] +
         [(f"box {label} on the warehouse: OpenVDB / SkiMap", "BoxQuery", "OpenVdb", arg, 1.5,
-          floor) for label, arg, floor in (("0.5 m", 50, 0.79), ("2 m", 200, 0.63))])
+          floor) for label, arg, floor in (("0.5 m", 50, 1.21), ("2 m", 200, 0.88))])
 
     def core_table(self):
         out = ["### The map core against each peer: goals and floors", "",

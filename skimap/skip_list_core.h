@@ -1,6 +1,7 @@
-// SkipListCore<K, V>: the compact skip list of SkiMap's x and y levels (its z level is ZRow).
+// SkipListCore<K, V>: the compact skip list of SkiMap's x level (its y and z levels are
+// sorted runs: YRow, ZRow).
 //
-// A core is 16 bytes (head, size, height) because a map holds one per x column. It
+// A core is 16 bytes (head, size, height), small enough to hold one per column. It
 // does not own an allocator: every mutating call takes the SkipListArena whose pool holds
 // the nodes and whose seeded RNG draws node heights, and the owner must call Clear(arena)
 // before the core is destroyed (SkipList<K, V> in skip_list.h is the self-contained wrapper
@@ -151,79 +152,6 @@ class SkipListCore {
       for (Node* n = links[l]; n != nullptr && n->key < key; n = links[l]) links = n->next;
     }
     return links[0];
-  }
-
-  // One search of LowerBoundMany: the first node of *list with key >= `key` goes to
-  // `result`.
-  struct Search {
-    const SkipListCore* list;
-    K key;
-    Node* result;
-  };
-
-  // Runs the searches proj(items[i]) (a Search&) for i < n interleaved: a step of each live
-  // search in turn, each step prefetching the node its next step reads, so that the cache
-  // misses of different lists overlap instead of adding up. Same results as LowerBound on
-  // each; worth it when the lists are far apart in memory (a map's columns).
-  template <class T, class Proj>
-  static void LowerBoundMany(T* items, size_t n, Proj proj) {
-    constexpr int kWidth = 16;  // searches in flight (measured: 8 < 12 ≈ 16 on this machine)
-    struct Cursor {
-      Node* const* links;
-      int level;
-      bool tower_read;  // false: `links` is a head tower whose line is being prefetched
-      Search* search;
-    };
-    Cursor live[kWidth];
-    int width = 0;
-    size_t next = 0;
-    // Starts the next non-trivial search in `c`; false when none is left.
-    auto start = [&](Cursor& c) {
-      while (next < n) {
-        Search& s = proj(items[next++]);
-        s.result = nullptr;
-        if (s.list->head_capacity_ == 0) continue;
-        c = {s.list->Links(nullptr), s.list->height_ - 1, s.list->head_capacity_ <= 1, &s};
-        if (c.tower_read) {
-          __builtin_prefetch(c.links[c.level]);  // the inline head is in the (cached) list
-        } else {
-          __builtin_prefetch(&c.links[c.level]);
-        }
-        return true;
-      }
-      return false;
-    };
-    while (width < kWidth && start(live[width])) ++width;
-    while (width > 0) {
-      for (int j = 0; j < width;) {
-        Cursor& c = live[j];
-        Node* node = c.links[c.level];
-        if (!c.tower_read) {
-          c.tower_read = true;
-        } else if (node != nullptr && node->key < c.search->key) {
-          c.links = node->next;  // move right
-        } else if (c.level > 0) {
-          --c.level;  // move down
-        } else {
-          c.search->result = node;
-          if (start(c)) {
-            ++j;
-          } else {
-            c = live[--width];  // j now holds the last live search
-          }
-          continue;
-        }
-        __builtin_prefetch(c.links[c.level]);
-        ++j;
-      }
-    }
-  }
-
-  // Starts loading what a search reads first (the head tower, or the first node when the
-  // head is inline) into the cache.
-  void PrefetchHead() const {
-    __builtin_prefetch(head_capacity_ > 1 ? static_cast<const void*>(head_.tower)
-                                          : static_cast<const void*>(head_.first));
   }
 
   // Node with exactly `key`, or nullptr.

@@ -174,38 +174,5 @@ TEST(SkipListCoreTest, ShortListsStayOneLevelHigh) {
   core.Clear(arena);
 }
 
-TEST(SkipListCoreTest, LowerBoundManyMatchesLowerBound) {
-  using Core = SkipListCore<int, int>;
-  SkipListArena arena({.max_height = 12, .promotion_probability = 0.25, .seed = 9});
-  std::mt19937 rng(5);
-  std::vector<Core> lists(40);
-  for (size_t i = 0; i < lists.size(); ++i) {
-    Core::Finger finger;
-    bool inserted = false;
-    const int n = i % 5 == 0 ? 0 : static_cast<int>(rng() % (i < 20 ? 4 : 600));
-    std::vector<int> keys(n);
-    for (int& k : keys) k = static_cast<int>(rng() % 2000) - 1000;
-    std::sort(keys.begin(), keys.end());
-    for (int k : keys) lists[i].FindOrInsert(arena, finger, k, &inserted);
-  }
-  struct Item {
-    Core::Search search;
-    int tag;
-  };
-  for (int trial = 0; trial < 50; ++trial) {
-    std::vector<Item> items;
-    for (int q = 0; q < 100; ++q) {
-      const Core& list = lists[rng() % lists.size()];
-      items.push_back({{&list, static_cast<int>(rng() % 2400) - 1200, nullptr}, q});
-    }
-    auto search_of = [](Item& it) -> Core::Search& { return it.search; };
-    Core::LowerBoundMany(items.data(), items.size(), search_of);
-    for (const Item& it : items) {
-      EXPECT_EQ(it.search.result, it.search.list->LowerBound(it.search.key)) << it.tag;
-    }
-  }
-  for (Core& list : lists) list.Clear(arena);
-}
-
 }  // namespace
 }  // namespace skimap
