@@ -122,8 +122,9 @@ class KeyedRun {
   static const Entry* LowerBoundIn(const Entry* first, const Entry* last, int32_t k) {
     return LowerBoundIn(const_cast<Entry*>(first), const_cast<Entry*>(last), k);
   }
-  // LowerBoundIn for a key expected near `first` (a batch's next key): probes at 1, 2, 4,
-  // ... entries ahead, then searches the last doubling. O(log d) for an answer d ahead.
+  // LowerBoundIn for a key expected near `first` (a batch's next key): probes the 1st,
+  // 2nd, 4th, 8th ... entries from `first`, then searches the last doubling. O(log d) for an answer
+  // d ahead.
   static Entry* GallopIn(Entry* first, Entry* last, int32_t k) {
     const size_t n = static_cast<size_t>(last - first);
     size_t lo = 0, step = 1;

@@ -1,5 +1,6 @@
-// SkiMap<V>: a sparse voxel map as a tree of skip lists, x -> y -> z (Gregorio and Di
-// Stefano, ICRA 2017), holding one voxel value V per occupied integer key.
+// SkiMap<V>: a sparse voxel map as a tree of ordered levels, x -> y -> z, after the tree of
+// skip lists of Gregorio and Di Stefano (ICRA 2017): a skip list of x columns over sorted
+// runs of y rows and z voxels. One voxel value V per occupied integer key.
 //
 //   SkiMap<RGBWeightedVoxel> map({.resolution = 0.02});
 //   VoxelBatch<RGBWeightedVoxel> batch;  ... batch.Finalize();
@@ -58,7 +59,7 @@ class SkiMap {
   struct Options {
     double resolution = 0.05;    // metres per voxel edge, > 0
     Point3 origin;               // world position of the corner of voxel (0, 0, 0)
-    SkipListOptions lists;       // height policy and RNG seed of every skip list
+    SkipListOptions lists;       // height policy and RNG seed of the x level
     ThreadPool* pool = nullptr;  // threads for batch writes (not owned); nullptr = caller
   };
   using ZList = ZRow<V>;  // the z level of one (x, y) column (z_row.h)
@@ -123,11 +124,11 @@ class SkiMap {
   bool Erase(const VoxelKey& key);
   // Removes every voxel.
   void Clear();
-  // Rebuilds each column with its y nodes and z runs laid out in key order in one chunk,
-  // each run at its exact size: after many frames (or de-integrations) they are scattered
-  // over the pool, and queries pay a cache miss per row. Content is unchanged. Costs about one copy
-  // of the map; readers wait only while a column pointer is swapped. A server runs it when a map is
-  // idle or every N frames.
+  // Rebuilds each column with its y run and z runs laid out in key order in one chunk
+  // (runs over 512 bytes from the heap), each at its exact size: after many frames (or
+  // de-integrations) they are scattered over the pool, and queries pay a cache miss per row.
+  // Content is unchanged. Costs about one copy of the map; readers wait only while a column pointer
+  // is swapped. A server runs it when a map is idle or every N frames.
   void Compact();
 
   // ---- Readers (thread safe, concurrent with the writer) ----
@@ -191,7 +192,7 @@ class SkiMap {
   template <class ColState, class RowState, class ColFn, class RowFn, class KeepFn, class Fn>
   void SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&& row_range, KeepFn&& keep,
                      Fn&& fn) const;
-  // fn(key, value) for every voxel in `box` (not empty), column by column, node by node.
+  // fn(key, value) for every voxel in `box` (not empty), column by column, row by row.
   template <class Fn>
   void WalkBox(const KeyBox& box, Fn&& fn) const;
   static std::unique_ptr<Column> CopyColumn(const Column& old);

@@ -169,16 +169,20 @@ std::optional<V> SkiMap<V>::Find(const VoxelKey& key) const {
   return e->value;
 }
 
+// Both skip the columns a reader can find empty: one just created whose writes have not
+// taken its lock yet, or one a write emptied that is not yet removed.
 template <Voxel V>
 std::optional<KeyBox> SkiMap<V>::Bounds() const {
   ReaderLock x_lock(&x_mu_);
-  if (xs_.empty()) return std::nullopt;
   KeyBox b{{kMaxKey, kMaxKey, kMaxKey}, {kMinKey, kMinKey, kMinKey}};
-  b.min.x = xs_.First()->key;
-  b.max.x = xs_.Last()->key;
+  bool any = false;
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
+    if (column.ys.empty()) continue;
+    if (!any) b.min.x = xn->key;
+    any = true;
+    b.max.x = xn->key;
     b.min.y = std::min(b.min.y, column.ys.begin()->key);
     b.max.y = std::max(b.max.y, (column.ys.end() - 1)->key);
     for (const auto& row : column.ys) {
@@ -186,24 +190,28 @@ std::optional<KeyBox> SkiMap<V>::Bounds() const {
       b.max.z = std::max(b.max.z, (row.value.end() - 1)->key);
     }
   }
+  if (!any) return std::nullopt;
   return b;
 }
 
 template <Voxel V>
 std::optional<KeyBox> SkiMap<V>::FootprintBounds() const {
   ReaderLock x_lock(&x_mu_);
-  if (xs_.empty()) return std::nullopt;
   KeyBox b;
-  b.min.x = xs_.First()->key;
-  b.max.x = xs_.Last()->key;
   b.min.y = kMaxKey;
   b.max.y = kMinKey;
+  bool any = false;
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
+    if (column.ys.empty()) continue;
+    if (!any) b.min.x = xn->key;
+    any = true;
+    b.max.x = xn->key;
     b.min.y = std::min(b.min.y, column.ys.begin()->key);
     b.max.y = std::max(b.max.y, (column.ys.end() - 1)->key);
   }
+  if (!any) return std::nullopt;
   return b;
 }
 

@@ -120,7 +120,8 @@ void SkiMap<V>::SearchColumns(int32_t x0, int32_t x1, ColFn&& col_range, RowFn&&
       len[i] = cols[i].ys->size();
       longest = std::max(longest, len[i]);
     }
-    // Branch-free lower bounds: each step halves every column's range still longer than 1.
+    // Lower bounds by halving (each step a conditional move, not a branch on the key): a
+    // step halves every column's range still longer than 1.
     for (; longest > 1; longest -= longest / 2) {
       for (size_t i = 0; i < n; ++i) {
         if (len[i] <= 1) continue;

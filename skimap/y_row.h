@@ -11,7 +11,8 @@
 // next to each other. A skip list walks a finger node by node (a pointer chase and a
 // branch per step, with nodes scattered over the pool); a run finds the next row by
 // galloping forward from the last one in contiguous memory, and all the new rows of a
-// batch go in with one merge from the back, each old entry moving once. Access stays
+// batch go in with one merge from the back, each old entry moving once (twice when the
+// block must grow first). Access stays
 // O(log n) by binary search and the level stays ordered; a batch that adds rows to a
 // column costs one pass over its entries (24 bytes each: a few microseconds for the
 // longest columns of a room at 1 cm).
@@ -117,8 +118,9 @@ class YRow : public KeyedRun<ZRow<V>> {
   }
 
   // Inserts a row for each of the `missing` y runs of [begin, end) that has none and some
-  // non-empty data, merging from the back so that each old entry moves once. A new row is
-  // built by appending its voxels (the run is sorted by z), at its exact size.
+  // non-empty data, merging from the back so that each old entry moves once (twice when the
+  // block grows first). A new row is built by appending its voxels (the run is sorted by
+  // z), at its exact size.
   template <class Item>
   void InsertMissing(NodePool& pool, const Item* begin, const Item* end, uint32_t missing,
                      WriteStats* stats, size_t* heap_bytes) {

@@ -110,7 +110,8 @@ class ZRow : public KeyedRun<V> {
 
  private:
   // Inserts the `missing` items of [begin, end) that have no entry and non-empty data,
-  // merging from the back so that each old entry moves once.
+  // merging from the back so that each old entry moves once (twice when the block grows
+  // first).
   template <class Item>
   void InsertMissing(NodePool& pool, const Item* begin, const Item* end, uint32_t missing,
                      WriteStats* stats, size_t* heap_bytes) {

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <map>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -96,6 +97,38 @@ TEST(SkiMapConcurrencyTest, ConcurrentSingleVoxelWritersAreSerialized) {
   map.ForEach([&](const VoxelKey&, const WeightVoxel& v) { total += v.weight; });
   EXPECT_EQ(total, 8000);
   EXPECT_EQ(map.size(), 50u);
+}
+
+TEST(SkiMapConcurrencyTest, BoundsSkipColumnsAWriteIsCreatingOrEmptying) {
+  // A column is in the x level, empty, between its creation and its batch's write, and
+  // between the write that empties it and its removal: Bounds must not read such a column.
+  SkiMap<WeightVoxel> map({.resolution = 0.1});
+  map.IntegrateKey({0, 0, 0}, {1});
+  std::atomic<bool> stop{false};
+  std::atomic<int> reads{0};
+  std::thread reader([&] {
+    while (!stop.load()) {
+      const std::optional<KeyBox> b = map.Bounds();
+      const std::optional<KeyBox> f = map.FootprintBounds();
+      ASSERT_TRUE(b.has_value() && f.has_value());
+      EXPECT_EQ(b->min.x, 0);
+      EXPECT_LE(b->min.y, b->max.y);
+      EXPECT_LE(b->min.z, b->max.z);
+      EXPECT_EQ(f->min.x, 0);
+      EXPECT_LE(f->min.y, f->max.y);
+      reads.fetch_add(1);
+    }
+  });
+  // Writes until the reader has read a few thousand times (bounded, should it never run).
+  for (int i = 0; reads.load() < 3000 && i < 3'000'000; ++i) {
+    const VoxelKey key{1 + i % 5, i % 3, 0};
+    map.IntegrateKey(key, {1});
+    map.DeintegrateKey(key, {1});
+  }
+  stop.store(true);
+  reader.join();
+  EXPECT_GE(reads.load(), 3000);
+  EXPECT_EQ(map.size(), 1u);
 }
 
 }  // namespace
