@@ -184,6 +184,8 @@ class SkiMap {
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(writer_mu_);
   static void StampYBlocks(Column& column, const typename VoxelBatch<V>::Item* begin,
                            const typename VoxelBatch<V>::Item* end, uint64_t version);
+  // Bounds() (with_z) or FootprintBounds().
+  std::optional<KeyBox> BoundsOf(bool with_z) const;
   // The search behind ForEachInBox and RadiusSearch. For each column x in [x0, x1] with
   // col_range(x, ColState*, int32_t* y0, int32_t* y1) true, each y entry in [y0, y1] with
   // row_range(const ColState&, y, RowState*, int32_t* z0, int32_t* z1) true, and each voxel

@@ -169,47 +169,40 @@ std::optional<V> SkiMap<V>::Find(const VoxelKey& key) const {
   return e->value;
 }
 
-// Both skip the columns a reader can find empty: one just created whose writes have not
-// taken its lock yet, or one a write emptied that is not yet removed.
 template <Voxel V>
 std::optional<KeyBox> SkiMap<V>::Bounds() const {
-  ReaderLock x_lock(&x_mu_);
-  KeyBox b{{kMaxKey, kMaxKey, kMaxKey}, {kMinKey, kMinKey, kMinKey}};
-  bool any = false;
-  for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
-    const Column& column = *xn->value;
-    ReaderLock lock(&column.mu);
-    if (column.ys.empty()) continue;
-    if (!any) b.min.x = xn->key;
-    any = true;
-    b.max.x = xn->key;
-    b.min.y = std::min(b.min.y, column.ys.begin()->key);
-    b.max.y = std::max(b.max.y, (column.ys.end() - 1)->key);
-    for (const auto& row : column.ys) {
-      b.min.z = std::min(b.min.z, row.value.begin()->key);
-      b.max.z = std::max(b.max.z, (row.value.end() - 1)->key);
-    }
-  }
-  if (!any) return std::nullopt;
-  return b;
+  return BoundsOf(/*with_z=*/true);
 }
 
 template <Voxel V>
 std::optional<KeyBox> SkiMap<V>::FootprintBounds() const {
+  return BoundsOf(/*with_z=*/false);
+}
+
+template <Voxel V>
+std::optional<KeyBox> SkiMap<V>::BoundsOf(bool with_z) const {
   ReaderLock x_lock(&x_mu_);
-  KeyBox b;
+  KeyBox b;  // z keeps the whole key range unless with_z
   b.min.y = kMaxKey;
   b.max.y = kMinKey;
+  if (with_z) b.min.z = kMaxKey, b.max.z = kMinKey;
   bool any = false;
   for (auto* xn = xs_.First(); xn != nullptr; xn = xn->next[0]) {
     const Column& column = *xn->value;
     ReaderLock lock(&column.mu);
+    // A reader can find a column empty: just created, before its batch's write took the
+    // column lock, or emptied by a write and not yet removed.
     if (column.ys.empty()) continue;
     if (!any) b.min.x = xn->key;
     any = true;
     b.max.x = xn->key;
     b.min.y = std::min(b.min.y, column.ys.begin()->key);
     b.max.y = std::max(b.max.y, (column.ys.end() - 1)->key);
+    if (!with_z) continue;
+    for (const auto& row : column.ys) {
+      b.min.z = std::min(b.min.z, row.value.begin()->key);
+      b.max.z = std::max(b.max.z, (row.value.end() - 1)->key);
+    }
   }
   if (!any) return std::nullopt;
   return b;
