@@ -213,29 +213,6 @@ class SkipListCore {
     return node;
   }
 
-  // Appends a node for `key` with a default-constructed value, without searching.
-  // REQUIRES: `key` is greater than every key in the list, and `finger` was fresh when the
-  // list was empty and has since been used only by Append on this list (it then holds the
-  // last node of each level, not the predecessors Seek needs: use it for nothing else).
-  Node* Append(SkipListArena& arena, Finger& finger, const K& key) {
-    const int h = arena.RandomHeight(size_);
-    if (h > head_capacity_) GrowHead(arena, h);
-    for (int l = finger.valid; l < h; ++l) finger.preds[l] = nullptr;  // new levels: head
-    if (h > finger.valid) finger.valid = h;
-    if (h > height_) height_ = static_cast<uint8_t>(h);
-    Node* node = static_cast<Node*>(arena.pool().Allocate(NodeBytes(h)));
-    new (&node->key) K(key);
-    node->height = static_cast<uint8_t>(h);
-    new (&node->value) V();
-    for (int l = 0; l < h; ++l) {
-      node->next[l] = nullptr;
-      Links(finger.preds[l])[l] = node;
-      finger.preds[l] = node;
-    }
-    ++size_;
-    return node;
-  }
-
   // Removes `key` if present and returns its memory to the pool. Same finger contract.
   bool Erase(SkipListArena& arena, Finger& finger, const K& key) {
     Node* n = Seek(finger, key);
